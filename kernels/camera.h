@@ -1,0 +1,65 @@
+/* camera.h: primary rays (port of camera.cuh's getRay).
+ *
+ * Reads: the Camera struct. Writes: nothing. Why: the original's scene files must frame the
+ * same picture, so the image plane is smallpt's: cx = (w*a/h, 0, 0), cy = normalize(cx x d)*a,
+ * and the ray through (x, y) is cx*(x/w - 1/2) + cy*(y/h - 1/2) + d, y = 0 the bottom row.
+ * Each pixel is split 2x2; the sample index picks the sub-pixel and a tent filter of width one
+ * sub-pixel jitters inside it (smallpt's filter, as main.cu's renderPixel).
+ *
+ * Thin lens (focus_distance > 0): the lens is a disk of radius lens_radius (the original's
+ * `aperture`) spanned by lens_u, lens_v; every ray through the lens meets the ray through its
+ * centre on the plane at distance focus_distance along forward. The original sampled a square
+ * of half-size `aperture` and focused on a sphere of radius `flength` around the camera;
+ * see README "Camera".
+ */
+#ifndef CLPT_CAMERA_H
+#define CLPT_CAMERA_H
+
+/* smallpt's tent filter: maps u in [0,1) to [-1, 1) with a triangular density. */
+inline float tent(float u) {
+    const float r = 2.0f * u;
+    return r < 1.0f ? sqrt(r) - 1.0f : 1.0f - sqrt(2.0f - r);
+}
+
+/* Shirley and Chiu's concentric map of the unit square onto the unit disk: area-preserving and
+ * continuous, so stratified lens samples stay stratified. */
+inline float2 concentric_disk(float2 u) {
+    const float2 p = 2.0f * u - 1.0f;
+    if (p.x == 0.0f && p.y == 0.0f) {
+        return (float2)(0.0f, 0.0f);
+    }
+    float r, phi;
+    if (fabs(p.x) > fabs(p.y)) {
+        r = p.x;
+        phi = M_PI_4_F * (p.y / p.x);
+    } else {
+        r = p.y;
+        phi = M_PI_2_F - M_PI_4_F * (p.x / p.y);
+    }
+    return r * (float2)(cos(phi), sin(phi));
+}
+
+/* The primary ray for pixel (px, py), sub-pixel `sub` (0..3), from four uniform numbers:
+ * u.xy jitter the image point, u.zw pick the lens point. */
+inline void camera_ray(__global const Camera* cam, uint px, uint py, uint sub, float4 u,
+                       float3* origin, float3* direction) {
+    const float sx = (float)(sub & 1u);
+    const float sy = (float)(sub >> 1);
+    const float fx = (((sx + 0.5f + tent(u.x)) * 0.5f + (float)px) / (float)cam->width) - 0.5f;
+    const float fy = (((sy + 0.5f + tent(u.y)) * 0.5f + (float)py) / (float)cam->height) - 0.5f;
+    const float3 forward = vload3(0, cam->forward);
+    const float3 d = vload3(0, cam->cx) * fx + vload3(0, cam->cy) * fy + forward;
+    const float3 o = vload3(0, cam->origin);
+    if (cam->focus_distance <= 0.0f) {
+        *origin = o;
+        *direction = normalize(d);
+        return;
+    }
+    const float3 focus = o + d * (cam->focus_distance / dot(d, forward));
+    const float2 lens = cam->lens_radius * concentric_disk(u.zw);
+    const float3 lens_point = o + vload3(0, cam->lens_u) * lens.x + vload3(0, cam->lens_v) * lens.y;
+    *origin = lens_point;
+    *direction = normalize(focus - lens_point);
+}
+
+#endif

@@ -1,0 +1,86 @@
+/* pathtracer.cl: the render kernel (port of pathtracer.cuh and main.cu's renderPixel).
+ *
+ * Reads: RenderParams (camera, counts, seed, depth settings), the Material, Sphere and Plane
+ * arrays. Writes: adds, for every pixel of rows [row_start, row_start + row_count), the
+ * `sample_count` path samples of indices sample_start... and their squares to `sum` and `sum_sq`
+ * (float4 per pixel, .w unused; row 0 is the bottom of the image). Samples are added one at a
+ * time onto the running sums, so the image is bit for bit the same however the host splits
+ * the work into launches.
+ *
+ * Why this shape: one work-item per pixel and a loop over samples, so the host can size each
+ * launch (rows x samples) to about 100 ms and never trip a display watchdog. Paths are
+ * iterative (the original unrolled recursion with templates and stopped at depth 8): Russian
+ * roulette ends them without bias; `max_depth` is only a safety cap, far past where roulette has
+ * ended every path that matters. No sample is clamped.
+ */
+#include "types.h"
+#include "rng.h"
+#include "ray.h"
+#include "camera.h"
+#include "objects.h"
+#include "material.h"
+
+inline float max_component(float3 v) {
+    return fmax(v.x, fmax(v.y, v.z));
+}
+
+/* One path sample: radiance arriving through pixel (px, py) for sample index `sample`. */
+inline float3 trace_path(__global const RenderParams* params, __global const Material* materials,
+                         __global const Sphere* spheres, __global const Plane* planes, uint px,
+                         uint py, uint sample) {
+    const uint pixel = py * params->camera.width + px;
+    Rng rng = rng_for_path(params->seed_lo, params->seed_hi, pixel, sample);
+    float3 o, d;
+    camera_ray(&params->camera, px, py, sample & 3u, rng_next4(&rng), &o, &d);
+
+    float3 radiance = (float3)(0.0f);
+    float3 throughput = (float3)(1.0f);
+    for (uint depth = 0u; depth < params->max_depth; ++depth) {
+        const Hit hit = scene_intersect(params, spheres, planes, o, d);
+        if (hit.kind == HIT_NONE) {
+            break; /* the background is black */
+        }
+        const Surface s = scene_surface(spheres, planes, hit, o, d);
+        __global const Material* m = &materials[s.material];
+        radiance += throughput * vload3(0, m->emission);
+
+        const float4 u = rng_next4(&rng);
+        float3 wi;
+        throughput *= material_sample(m->type, vload3(0, m->color), -d, s.n, u, &wi);
+
+        /* Russian roulette on the throughput (pbrt-v4 section 14.1.5): unbiased, and it ends
+         * zero-throughput paths (black surfaces, emitters of colour 0) at once. */
+        const float survive = fmin(1.0f, max_component(throughput));
+        if (depth + 1u >= params->rr_depth || survive <= 0.0f) {
+            if (u.w >= survive) {
+                break;
+            }
+            throughput /= survive;
+        }
+        o = offset_ray_origin(s.p, s.p_error, s.n, wi);
+        d = wi;
+    }
+    return radiance;
+}
+
+__kernel void render_pass(__global const RenderParams* params,
+                          __global const Material* materials, __global const Sphere* spheres,
+                          __global const Plane* planes, __global float4* sum,
+                          __global float4* sum_sq, uint sample_start, uint sample_count,
+                          uint row_start, uint row_count) {
+    const uint px = get_global_id(0);
+    if (px >= params->camera.width || get_global_id(1) >= row_count) {
+        return; /* padding of the global size to whole work-groups */
+    }
+    const uint py = row_start + get_global_id(1);
+    const uint pixel = py * params->camera.width + px;
+    float4 acc = sum[pixel];
+    float4 acc_sq = sum_sq[pixel];
+    for (uint i = 0u; i < sample_count; ++i) {
+        const float3 l = trace_path(params, materials, spheres, planes, px, py, sample_start + i);
+        acc += (float4)(l, 0.0f);
+        acc_sq += (float4)(l * l, 0.0f);
+    }
+    sum[pixel] = acc;
+    sum_sq[pixel] = acc_sq;
+}

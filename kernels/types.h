@@ -1,0 +1,79 @@
+/* types.h: every struct shared between host and device, declared once.
+ *
+ * Reads: nothing. Writes: nothing. Why: the Rust mirrors in src/device/layout.rs copy these
+ * declarations field for field (#[repr(C)] + bytemuck); both sides assert the sizes, and the
+ * layout probe (tests/layout.rs) compiles offsetof() for every field on the device and compares
+ * it with Rust's offset_of!. Rules: only 4-byte scalars and arrays of them (no float3: it is
+ * 16 bytes with 16-byte alignment), so no implicit padding can differ between compilers.
+ */
+#ifndef CLPT_TYPES_H
+#define CLPT_TYPES_H
+
+/* Compile-time size check that works in OpenCL C 1.2 (C99 has no _Static_assert). */
+#define CLPT_ASSERT_SIZE(T, n) typedef char clpt_size_check_##T[(sizeof(T) == (n)) ? 1 : -1]
+
+/* Material types, as the original's `type diff|spec|refr`. */
+#define MATERIAL_DIFFUSE 0u
+#define MATERIAL_SPECULAR 1u
+#define MATERIAL_REFRACTIVE 2u
+
+/* The camera (camera.cuh): smallpt's basis, plus a thin lens when focus_distance > 0.
+ * A primary ray through image point (x, y), y = 0 the bottom row, has direction
+ * cx*(x/w - 1/2) + cy*(y/h - 1/2) + forward. */
+typedef struct Camera {
+    float origin[3];
+    float forward[3];      /* unit view direction d */
+    float cx[3];           /* image-plane x axis, length w*a/h (a = angle in radians) */
+    float cy[3];           /* image-plane y axis, length a */
+    float lens_u[3];       /* unit vectors spanning the lens disk */
+    float lens_v[3];
+    float lens_radius;     /* 0: pinhole */
+    float focus_distance;  /* distance of the plane in focus, along forward */
+    uint width;
+    uint height;
+} Camera;
+CLPT_ASSERT_SIZE(Camera, 88);
+
+/* A material (material.cuh). Texture maps arrive with the texture issue. */
+typedef struct Material {
+    float emission[3];
+    float color[3];
+    uint type;             /* MATERIAL_* */
+} Material;
+CLPT_ASSERT_SIZE(Material, 28);
+
+/* A sphere (sphere.cuh). */
+typedef struct Sphere {
+    float center[3];
+    float radius;
+    uint material;
+} Sphere;
+CLPT_ASSERT_SIZE(Sphere, 20);
+
+/* A one-sided plane n.p = offset (plane.cuh), visible from the side n points to, limited to
+ * the points p with |p - n*offset| <= range in every coordinate (the original's bounding box).
+ * centerp, dir_u, dir_v map texture coordinates (texture issue). */
+typedef struct Plane {
+    float normal[3];       /* unit */
+    float offset;
+    float range;
+    float centerp[3];
+    float dir_u[3];
+    float dir_v[3];
+    uint material;
+} Plane;
+CLPT_ASSERT_SIZE(Plane, 60);
+
+/* Everything a render launch needs besides the object arrays, uploaded once per render. */
+typedef struct RenderParams {
+    Camera camera;
+    uint num_spheres;
+    uint num_planes;
+    uint seed_lo;          /* the 64-bit --seed, the Philox key */
+    uint seed_hi;
+    uint max_depth;        /* safety cap on path length (bounces) */
+    uint rr_depth;         /* Russian roulette starts at this depth */
+} RenderParams;
+CLPT_ASSERT_SIZE(RenderParams, 112);
+
+#endif

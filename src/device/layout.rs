@@ -1,0 +1,192 @@
+//! `#[repr(C)]` mirrors of the structs in `kernels/types.h`, field for field.
+//!
+//! Each type asserts its size at compile time, as `types.h` does on the device; the layout
+//! probe (`tests/layout.rs`) builds `offsetof` for every field listed in [`LAYOUT`] on the
+//! device and compares it with Rust's `offset_of!`. Only 4-byte scalars and arrays of them:
+//! no `float3` (16 bytes on the device), so no padding can differ between compilers.
+
+use bytemuck::{Pod, Zeroable};
+use std::mem::{offset_of, size_of};
+
+/// `MATERIAL_DIFFUSE` in `types.h`.
+pub const MATERIAL_DIFFUSE: u32 = 0;
+/// `MATERIAL_SPECULAR` in `types.h`.
+pub const MATERIAL_SPECULAR: u32 = 1;
+/// `MATERIAL_REFRACTIVE` in `types.h`.
+pub const MATERIAL_REFRACTIVE: u32 = 2;
+
+/// `Camera` in `types.h`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Camera {
+    pub origin: [f32; 3],
+    pub forward: [f32; 3],
+    pub cx: [f32; 3],
+    pub cy: [f32; 3],
+    pub lens_u: [f32; 3],
+    pub lens_v: [f32; 3],
+    pub lens_radius: f32,
+    pub focus_distance: f32,
+    pub width: u32,
+    pub height: u32,
+}
+const _: () = assert!(size_of::<Camera>() == 88);
+
+/// `Material` in `types.h`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Material {
+    pub emission: [f32; 3],
+    pub color: [f32; 3],
+    pub kind: u32,
+}
+const _: () = assert!(size_of::<Material>() == 28);
+
+/// `Sphere` in `types.h`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Sphere {
+    pub center: [f32; 3],
+    pub radius: f32,
+    pub material: u32,
+}
+const _: () = assert!(size_of::<Sphere>() == 20);
+
+/// `Plane` in `types.h`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Plane {
+    pub normal: [f32; 3],
+    pub offset: f32,
+    pub range: f32,
+    pub centerp: [f32; 3],
+    pub dir_u: [f32; 3],
+    pub dir_v: [f32; 3],
+    pub material: u32,
+}
+const _: () = assert!(size_of::<Plane>() == 60);
+
+/// `RenderParams` in `types.h`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RenderParams {
+    pub camera: Camera,
+    pub num_spheres: u32,
+    pub num_planes: u32,
+    pub seed_lo: u32,
+    pub seed_hi: u32,
+    pub max_depth: u32,
+    pub rr_depth: u32,
+}
+const _: () = assert!(size_of::<RenderParams>() == 112);
+
+/// One struct's layout as Rust sees it: its C name, size, and (field name, offset) pairs.
+pub struct StructLayout {
+    pub name: &'static str,
+    pub size: usize,
+    pub fields: &'static [(&'static str, usize)],
+}
+
+macro_rules! layout {
+    ($rust:ty, $c:literal, { $($rf:ident => $cf:literal),* $(,)? }) => {
+        StructLayout {
+            name: $c,
+            size: size_of::<$rust>(),
+            fields: &[$(($cf, offset_of!($rust, $rf))),*],
+        }
+    };
+}
+
+/// Every shared struct and field: the single list both the size asserts above and the device
+/// layout probe are checked against. The C field names are compiled by the probe, the Rust
+/// ones by `offset_of!`, so a renamed or reordered field fails on one side or the other.
+pub const LAYOUT: &[StructLayout] = &[
+    layout!(Camera, "Camera", {
+        origin => "origin", forward => "forward", cx => "cx", cy => "cy", lens_u => "lens_u",
+        lens_v => "lens_v", lens_radius => "lens_radius", focus_distance => "focus_distance",
+        width => "width", height => "height",
+    }),
+    layout!(Material, "Material", { emission => "emission", color => "color", kind => "type" }),
+    layout!(Sphere, "Sphere", { center => "center", radius => "radius", material => "material" }),
+    layout!(Plane, "Plane", {
+        normal => "normal", offset => "offset", range => "range", centerp => "centerp",
+        dir_u => "dir_u", dir_v => "dir_v", material => "material",
+    }),
+    layout!(RenderParams, "RenderParams", {
+        camera => "camera", num_spheres => "num_spheres", num_planes => "num_planes",
+        seed_lo => "seed_lo", seed_hi => "seed_hi", max_depth => "max_depth",
+        rr_depth => "rr_depth",
+    }),
+];
+
+/// The OpenCL source of the layout probe: one kernel writing, for every struct of [`LAYOUT`],
+/// its `sizeof` and then each field's offset.
+pub fn probe_source() -> String {
+    let mut src = String::from(
+        "#include \"types.h\"\n\
+         #define CLPT_OFFSETOF(T, f) ((uint)(size_t)&(((T*)0)->f))\n\
+         __kernel void probe_layout(__global uint* out) {\n    uint i = 0u;\n",
+    );
+    for s in LAYOUT {
+        src.push_str(&format!("    out[i++] = (uint)sizeof({});\n", s.name));
+        for (field, _) in s.fields {
+            src.push_str(&format!(
+                "    out[i++] = CLPT_OFFSETOF({}, {field});\n",
+                s.name
+            ));
+        }
+    }
+    src.push_str("}\n");
+    src
+}
+
+/// Builds and runs the layout probe on `device` and compares every size and offset with Rust's.
+pub fn verify(
+    device: &super::Device,
+    sources: &super::program::KernelSources,
+) -> crate::Result<()> {
+    use crate::Error;
+    let expected: Vec<(String, usize)> = LAYOUT
+        .iter()
+        .flat_map(|s| {
+            std::iter::once((format!("sizeof({})", s.name), s.size)).chain(
+                s.fields
+                    .iter()
+                    .map(move |(f, o)| (format!("offsetof({}, {f})", s.name), *o)),
+            )
+        })
+        .collect();
+    let source = sources.expand_text("layout_probe.cl", &probe_source())?;
+    let built = super::program::build(device, source, super::program::build_options(&[]))?;
+    let out = ocl::Buffer::<u32>::builder()
+        .queue(device.queue.clone())
+        .len(expected.len())
+        .fill_val(u32::MAX)
+        .build()
+        .map_err(|e| Error::opencl("allocating the layout probe", e))?;
+    let kernel = ocl::Kernel::builder()
+        .program(&built.program)
+        .name("probe_layout")
+        .queue(device.queue.clone())
+        .global_work_size(1)
+        .arg(&out)
+        .build()
+        .map_err(|e| Error::opencl("creating the layout probe", e))?;
+    // SAFETY: one work-item writes expected.len() words into a buffer of that length.
+    unsafe { kernel.enq() }.map_err(|e| Error::opencl("running the layout probe", e))?;
+    let mut got = vec![0u32; expected.len()];
+    out.read(&mut got)
+        .enq()
+        .map_err(|e| Error::opencl("reading the layout probe", e))?;
+    let wrong: Vec<String> = expected
+        .iter()
+        .zip(&got)
+        .filter(|((_, want), have)| *want as u32 != **have)
+        .map(|((what, want), have)| format!("{what}: host {want}, device {have}"))
+        .collect();
+    if wrong.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::Layout(wrong.join("; ")))
+    }
+}

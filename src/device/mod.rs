@@ -1,0 +1,168 @@
+//! OpenCL platforms and devices: discovery, choice (`--device`, `CLPT_DEVICE`), and the
+//! context and queue a render runs on. Kernel building lives in [`program`], the shared struct
+//! layouts in [`layout`], packing and uploading the scene in [`upload`].
+
+pub mod layout;
+pub mod program;
+pub mod upload;
+
+use crate::error::{Error, Result};
+use ocl::enums::{DeviceInfo as Info, DeviceInfoResult as InfoResult};
+use std::fmt;
+
+/// The environment variable that picks a device when `--device` is not given.
+pub const DEVICE_ENV: &str = "CLPT_DEVICE";
+
+/// What `clpt devices` shows about one device.
+#[derive(Clone, Debug)]
+pub struct DeviceDescription {
+    /// Position in the list of all devices of all platforms, as `--device` takes it.
+    pub index: usize,
+    pub platform: String,
+    pub name: String,
+    pub kind: String,
+    pub compute_units: u32,
+    pub global_mem_bytes: u64,
+    pub opencl_c_version: String,
+    pub driver_version: String,
+    pub is_gpu: bool,
+}
+
+impl fmt::Display for DeviceDescription {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "[{}] {} ({}, {}): {} compute units, {:.1} GiB, {}, driver {}",
+            self.index,
+            self.name,
+            self.kind,
+            self.platform,
+            self.compute_units,
+            self.global_mem_bytes as f64 / (1u64 << 30) as f64,
+            self.opencl_c_version,
+            self.driver_version
+        )
+    }
+}
+
+/// A chosen device with its context and in-order queue.
+pub struct Device {
+    pub description: DeviceDescription,
+    pub device: ocl::Device,
+    pub context: ocl::Context,
+    pub queue: ocl::Queue,
+}
+
+fn info_string(device: &ocl::Device, what: Info) -> String {
+    device
+        .info(what)
+        .map(|r| r.to_string().trim().to_string())
+        .unwrap_or_else(|e| format!("<unknown: {e}>"))
+}
+
+fn describe(index: usize, platform: &ocl::Platform, device: &ocl::Device) -> DeviceDescription {
+    let (kind, is_gpu) = match device.info(Info::Type) {
+        Ok(InfoResult::Type(t)) if t.contains(ocl::flags::DEVICE_TYPE_GPU) => ("GPU", true),
+        Ok(InfoResult::Type(t)) if t.contains(ocl::flags::DEVICE_TYPE_CPU) => ("CPU", false),
+        Ok(InfoResult::Type(t)) if t.contains(ocl::flags::DEVICE_TYPE_ACCELERATOR) => {
+            ("accelerator", false)
+        }
+        _ => ("other", false),
+    };
+    let compute_units = match device.info(Info::MaxComputeUnits) {
+        Ok(InfoResult::MaxComputeUnits(n)) => n,
+        _ => 0,
+    };
+    let global_mem_bytes = match device.info(Info::GlobalMemSize) {
+        Ok(InfoResult::GlobalMemSize(n)) => n,
+        _ => 0,
+    };
+    DeviceDescription {
+        index,
+        platform: platform
+            .name()
+            .unwrap_or_else(|_| "<unknown platform>".into()),
+        name: device.name().unwrap_or_else(|_| "<unknown device>".into()),
+        kind: kind.into(),
+        compute_units,
+        global_mem_bytes,
+        opencl_c_version: info_string(device, Info::OpenclCVersion),
+        driver_version: info_string(device, Info::DriverVersion),
+        is_gpu,
+    }
+}
+
+/// Every device of every platform, in the order `--device` indexes them.
+pub fn list() -> Result<Vec<(ocl::Platform, ocl::Device, DeviceDescription)>> {
+    // ocl's Platform::list panics when the ICD loader finds no platform; ask the core API.
+    // Enumeration is not thread-safe everywhere (PoCL 3.1 reported no devices to concurrent
+    // first callers), so enumerations are serialised.
+    static ENUMERATION: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _guard = ENUMERATION
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    let ids = ocl::core::get_platform_ids();
+    let platforms = match ids {
+        Ok(ids) if !ids.is_empty() => ids.into_iter().map(ocl::Platform::new),
+        _ => return Err(Error::NoPlatform),
+    };
+    let mut all = Vec::new();
+    for platform in platforms {
+        let devices = ocl::Device::list_all(platform)
+            .map_err(|e| Error::opencl("listing the devices of a platform", e))?;
+        for device in devices {
+            let description = describe(all.len(), &platform, &device);
+            all.push((platform, device, description));
+        }
+    }
+    if all.is_empty() {
+        return Err(Error::NoPlatform);
+    }
+    Ok(all)
+}
+
+/// Picks a device: `wanted` (or `$CLPT_DEVICE`) as an index into [`list`] or a case-insensitive
+/// substring of the device or platform name; by default the first GPU, else the first device.
+pub fn select(wanted: Option<&str>) -> Result<Device> {
+    let all = list()?;
+    let env = std::env::var(DEVICE_ENV)
+        .ok()
+        .filter(|s| !s.trim().is_empty());
+    let wanted = wanted.map(str::to_string).or(env);
+    let chosen = match wanted.as_deref().map(str::trim) {
+        None => all.iter().position(|(_, _, d)| d.is_gpu).unwrap_or(0),
+        Some(w) => match w.parse::<usize>() {
+            Ok(i) if i < all.len() => i,
+            _ => {
+                let needle = w.to_lowercase();
+                all.iter()
+                    .position(|(_, _, d)| {
+                        d.name.to_lowercase().contains(&needle)
+                            || d.platform.to_lowercase().contains(&needle)
+                    })
+                    .ok_or_else(|| Error::NoSuchDevice {
+                        wanted: w.to_string(),
+                        available: all
+                            .iter()
+                            .map(|(_, _, d)| format!("  {d}"))
+                            .collect::<Vec<_>>()
+                            .join("\n"),
+                    })?
+            }
+        },
+    };
+    let (platform, device, description) = all.into_iter().nth(chosen).ok_or(Error::NoPlatform)?;
+    let context = ocl::Context::builder()
+        .platform(platform)
+        .devices(device)
+        .build()
+        .map_err(|e| Error::opencl(format!("creating a context on {}", description.name), e))?;
+    let queue = ocl::Queue::new(&context, device, None)
+        .map_err(|e| Error::opencl(format!("creating a queue on {}", description.name), e))?;
+    Ok(Device {
+        description,
+        device,
+        context,
+        queue,
+    })
+}

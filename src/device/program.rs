@@ -1,0 +1,209 @@
+//! The one kernel loader: reads kernel sources (embedded in the binary, or from `--kernels DIR`),
+//! resolves `#include "file"` once per file, emits `#line` so the compiler's messages name the
+//! kernel file and line, takes every build option from [`build_options`], and puts the build
+//! log into the error when a build fails.
+
+use super::Device;
+use crate::error::{Error, Result};
+use std::ffi::CString;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Every file of `kernels/`, compiled into the binary so an installed clpt needs no sources.
+const EMBEDDED: &[(&str, &str)] = &[
+    ("types.h", include_str!("../../kernels/types.h")),
+    ("rng.h", include_str!("../../kernels/rng.h")),
+    ("ray.h", include_str!("../../kernels/ray.h")),
+    ("camera.h", include_str!("../../kernels/camera.h")),
+    ("sphere.h", include_str!("../../kernels/sphere.h")),
+    ("plane.h", include_str!("../../kernels/plane.h")),
+    ("objects.h", include_str!("../../kernels/objects.h")),
+    ("material.h", include_str!("../../kernels/material.h")),
+    ("pathtracer.cl", include_str!("../../kernels/pathtracer.cl")),
+    ("probes.cl", include_str!("../../kernels/probes.cl")),
+];
+
+/// Where kernel sources come from.
+#[derive(Clone, Debug, Default)]
+pub enum KernelSources {
+    /// The copies compiled into the binary.
+    #[default]
+    Embedded,
+    /// A directory (`--kernels DIR`), read at run time: edit kernels without rebuilding.
+    Dir(PathBuf),
+}
+
+impl KernelSources {
+    fn read(&self, name: &str) -> Result<String> {
+        match self {
+            KernelSources::Embedded => EMBEDDED
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map(|(_, text)| text.to_string())
+                .ok_or_else(|| Error::KernelSource(format!("no embedded kernel file `{name}`"))),
+            KernelSources::Dir(dir) => {
+                let path = dir.join(name);
+                std::fs::read_to_string(&path).map_err(|source| Error::Read { path, source })
+            }
+        }
+    }
+
+    /// The complete program source for `entry`: includes resolved, `#line` markers emitted.
+    pub fn expand(&self, entry: &str) -> Result<String> {
+        let mut out = String::new();
+        let mut done = Vec::new();
+        self.expand_into(entry, &mut out, &mut done, &mut Vec::new())?;
+        Ok(out)
+    }
+
+    /// A generated program (the layout probe) whose own `#include`s resolve here.
+    pub fn expand_text(&self, name: &str, text: &str) -> Result<String> {
+        let mut out = String::new();
+        let mut done = vec![name.to_string()];
+        self.expand_lines(name, text, &mut out, &mut done, &mut vec![name.to_string()])?;
+        Ok(out)
+    }
+
+    fn expand_into(
+        &self,
+        name: &str,
+        out: &mut String,
+        done: &mut Vec<String>,
+        stack: &mut Vec<String>,
+    ) -> Result<()> {
+        if stack.iter().any(|s| s == name) {
+            return Err(Error::KernelSource(format!(
+                "#include cycle: {} -> {name}",
+                stack.join(" -> ")
+            )));
+        }
+        if done.iter().any(|d| d == name) {
+            return Ok(()); // each file once, like a header guard
+        }
+        done.push(name.to_string());
+        let text = self.read(name)?;
+        stack.push(name.to_string());
+        self.expand_lines(name, &text, out, done, stack)?;
+        stack.pop();
+        Ok(())
+    }
+
+    fn expand_lines(
+        &self,
+        name: &str,
+        text: &str,
+        out: &mut String,
+        done: &mut Vec<String>,
+        stack: &mut Vec<String>,
+    ) -> Result<()> {
+        out.push_str(&format!("#line 1 \"{name}\"\n"));
+        for (i, line) in text.lines().enumerate() {
+            match include_target(line) {
+                Some(Ok(target)) => {
+                    self.expand_into(target, out, done, stack)
+                        .map_err(|e| match e {
+                            Error::Read { path, source } => Error::KernelSource(format!(
+                                "{name}:{}: cannot include `{}`: {source}",
+                                i + 1,
+                                path.display()
+                            )),
+                            Error::KernelSource(m) if !m.starts_with("#include cycle") => {
+                                Error::KernelSource(format!("{name}:{}: {m}", i + 1))
+                            }
+                            other => other,
+                        })?;
+                    out.push_str(&format!("#line {} \"{name}\"\n", i + 2));
+                }
+                Some(Err(())) => {
+                    return Err(Error::KernelSource(format!(
+                        "{name}:{}: only `#include \"file\"` is supported, found `{}`",
+                        i + 1,
+                        line.trim()
+                    )));
+                }
+                None => {
+                    out.push_str(line);
+                    out.push('\n');
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `Some(Ok(file))` for `#include "file"`, `Some(Err)` for another `#include` form.
+fn include_target(line: &str) -> Option<std::result::Result<&str, ()>> {
+    let rest = line.trim_start().strip_prefix('#')?.trim_start();
+    let rest = rest.strip_prefix("include")?.trim();
+    Some(
+        rest.strip_prefix('"')
+            .and_then(|r| r.strip_suffix('"'))
+            .filter(|f| !f.is_empty() && !f.contains('"'))
+            .ok_or(()),
+    )
+}
+
+/// Every compiler option clpt passes, from one place. No fast-math: the ray-spawning error
+/// bounds (kernels/ray.h) assume IEEE rounding.
+pub fn build_options(defines: &[(&str, String)]) -> String {
+    defines
+        .iter()
+        .map(|(k, v)| format!("-D{k}={v}"))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// A built program with what went into it.
+pub struct BuiltProgram {
+    pub program: ocl::Program,
+    pub source: String,
+    pub options: String,
+    pub build_time: Duration,
+}
+
+/// Builds a complete (already expanded) source for `device`.
+pub fn build(device: &Device, source: String, options: String) -> Result<BuiltProgram> {
+    let start = Instant::now();
+    let src = CString::new(source.clone())
+        .map_err(|_| Error::KernelSource("kernel source contains a NUL byte".into()))?;
+    let opts = CString::new(options.clone())
+        .map_err(|_| Error::KernelSource("build options contain a NUL byte".into()))?;
+    let program = ocl::core::create_program_with_source(&device.context, &[src])
+        .map_err(|e| Error::opencl("creating the program", e))?;
+    if let Err(e) = ocl::core::build_program(&program, Some(&[device.device]), &opts, None, None) {
+        let log = match ocl::core::get_program_build_info(
+            &program,
+            device.device,
+            ocl::enums::ProgramBuildInfo::BuildLog,
+        ) {
+            Ok(ocl::enums::ProgramBuildInfoResult::BuildLog(log)) if !log.trim().is_empty() => log,
+            _ => e.to_string(),
+        };
+        return Err(Error::Build {
+            device: device.description.name.clone(),
+            options,
+            log,
+        });
+    }
+    Ok(BuiltProgram {
+        program: ocl::Program::from(program),
+        source,
+        options,
+        build_time: start.elapsed(),
+    })
+}
+
+/// Expands and builds the kernel file `entry` of `sources`.
+pub fn build_entry(
+    device: &Device,
+    sources: &KernelSources,
+    entry: &str,
+    options: String,
+) -> Result<BuiltProgram> {
+    build(device, sources.expand(entry)?, options)
+}
+
+/// The `kernels/` folder of this checkout, for tests that edit or inspect kernel files.
+pub fn checkout_kernel_dir() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/kernels"))
+}

@@ -1,0 +1,97 @@
+//! The library's error type: every failure a user can cause or meet, with enough context to act
+//! on it (file:line:column for scene files, device and build log for kernel builds).
+
+use std::fmt;
+use std::path::PathBuf;
+
+/// A place in a scene file: 1-based line and column (columns count characters).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Location {
+    pub file: String,
+    pub line: usize,
+    pub column: usize,
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}:{}", self.file, self.line, self.column)
+    }
+}
+
+/// A scene file that cannot be read as a scene: where, and what was expected.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{location}: {message}")]
+pub struct ParseError {
+    pub location: Location,
+    pub message: String,
+}
+
+/// Something worth telling the user about a scene that still loads (the original's own files
+/// have slips such as a wrong object count).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Warning {
+    pub location: Location,
+    pub message: String,
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: warning: {}", self.location, self.message)
+    }
+}
+
+/// Every error the clpt library returns.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error(transparent)]
+    Parse(#[from] ParseError),
+
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+
+    #[error("cannot write {}: {message}", path.display())]
+    Write { path: PathBuf, message: String },
+
+    #[error("OpenCL: {context}: {message}")]
+    OpenCl { context: String, message: String },
+
+    #[error("no OpenCL device matches `{wanted}`; available:\n{available}")]
+    NoSuchDevice { wanted: String, available: String },
+
+    #[error(
+        "no OpenCL platform found. Install one (on Debian/Ubuntu: \
+         `apt-get install pocl-opencl-icd ocl-icd-opencl-dev`, or your GPU vendor's driver)"
+    )]
+    NoPlatform,
+
+    #[error("kernel source: {0}")]
+    KernelSource(String),
+
+    #[error("kernel build failed on {device} (options: {options}):\n{log}")]
+    Build {
+        device: String,
+        options: String,
+        log: String,
+    },
+
+    #[error("device layout check failed: {0}")]
+    Layout(String),
+
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl Error {
+    /// Wraps an OpenCL failure with what clpt was doing at the time.
+    pub fn opencl(context: impl Into<String>, err: impl fmt::Display) -> Self {
+        Error::OpenCl {
+            context: context.into(),
+            message: err.to_string(),
+        }
+    }
+}
+
+pub type Result<T> = std::result::Result<T, Error>;

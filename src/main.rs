@@ -1,0 +1,281 @@
+//! The `clpt` command line: `render`, `devices`, `bench`.
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Parser, Subcommand};
+use clpt::device::{self, program::KernelSources};
+use clpt::render::{Progress, RenderOptions, Renderer};
+use clpt::scene::{Scene, builtin};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+#[derive(Parser)]
+#[command(
+    name = "clpt",
+    version,
+    about = "A Monte Carlo path tracer on OpenCL (GPUs, or CPUs through PoCL)",
+    long_about = "A Monte Carlo path tracer on OpenCL: renders scene files of the original CUDA \
+                  course renderer's format, unbiased, on any OpenCL device.\n\nExamples:\n  \
+                  clpt render                       # the built-in smallpt room -> smallpt.png\n  \
+                  clpt render scene.txt --spp 256 -o out.exr\n  \
+                  clpt devices                      # list OpenCL devices\n  \
+                  clpt bench scenes/smallpt.txt     # samples/s and paths/s"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene file (the built-in smallpt room when none is given) to an image.
+    Render(RenderArgs),
+    /// List every OpenCL platform and device, with the index `--device` takes.
+    Devices,
+    /// Measure samples per second and paths per second on scenes.
+    Bench(BenchArgs),
+}
+
+#[derive(Args)]
+struct DeviceArgs {
+    /// Device: an index from `clpt devices` or part of its name [env: CLPT_DEVICE]
+    /// [default: the first GPU, else the first device]
+    #[arg(short, long)]
+    device: Option<String>,
+    /// Read kernel sources from DIR instead of the copies built into the binary.
+    #[arg(long, value_name = "DIR")]
+    kernels: Option<PathBuf>,
+}
+
+impl DeviceArgs {
+    fn open(&self) -> Result<(device::Device, KernelSources)> {
+        let device = device::select(self.device.as_deref())?;
+        let sources = match &self.kernels {
+            Some(dir) => KernelSources::Dir(dir.clone()),
+            None => KernelSources::Embedded,
+        };
+        Ok((device, sources))
+    }
+}
+
+#[derive(Args)]
+struct SamplingArgs {
+    /// Random seed: the same seed on the same device gives the same image, bit for bit.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Override the scene's image width.
+    #[arg(long)]
+    width: Option<u32>,
+    /// Override the scene's image height.
+    #[arg(long)]
+    height: Option<u32>,
+    /// Safety cap on path length (bounces); Russian roulette ends paths without bias long before.
+    #[arg(long, default_value_t = 65536)]
+    max_depth: u32,
+    /// Bounce from which Russian roulette may end a path.
+    #[arg(long, default_value_t = 3)]
+    rr_depth: u32,
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    /// Scene file (seed dialect, see README); the built-in smallpt room if omitted.
+    scene: Option<PathBuf>,
+    /// Output image: .png, .ppm (8-bit, gamma 2.2), .pfm, .exr (linear float)
+    /// [default: the scene's name with .png, in the current directory]
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Samples (paths) per pixel [default: 64, or no limit with --time]
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Stop after this many seconds (at the end of the pass running then).
+    #[arg(long, value_name = "SECONDS")]
+    time: Option<f64>,
+    #[command(flatten)]
+    sampling: SamplingArgs,
+    #[command(flatten)]
+    device: DeviceArgs,
+    /// Print the device, the build options and timings.
+    #[arg(short, long)]
+    verbose: bool,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// Scene files [default: the built-in smallpt room]
+    scenes: Vec<PathBuf>,
+    /// Samples per pixel of each measured render.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    #[command(flatten)]
+    sampling: SamplingArgs,
+    #[command(flatten)]
+    device: DeviceArgs,
+}
+
+fn load_scene(path: Option<&Path>, sampling: &SamplingArgs) -> Result<Scene> {
+    let mut scene = match path {
+        Some(p) => Scene::load(p)?,
+        None => builtin::scene()?,
+    };
+    for w in &scene.warnings {
+        eprintln!("{w}");
+    }
+    if let Some(w) = sampling.width {
+        scene.camera.width = w;
+    }
+    if let Some(h) = sampling.height {
+        scene.camera.height = h;
+    }
+    Ok(scene)
+}
+
+fn options(sampling: &SamplingArgs, spp: Option<u32>, time: Option<f64>) -> Result<RenderOptions> {
+    let time_limit = match time {
+        Some(t) if t.is_finite() && t > 0.0 => Some(Duration::from_secs_f64(t)),
+        Some(t) => bail!("--time must be a positive number of seconds, got {t}"),
+        None => None,
+    };
+    if spp == Some(0) {
+        bail!("--spp must be at least 1");
+    }
+    Ok(RenderOptions {
+        spp: spp.or(if time_limit.is_some() { None } else { Some(64) }),
+        time_limit,
+        seed: sampling.seed,
+        max_depth: sampling.max_depth,
+        rr_depth: sampling.rr_depth,
+        ..RenderOptions::default()
+    })
+}
+
+fn default_output(scene: Option<&Path>) -> PathBuf {
+    let stem = scene
+        .and_then(|p| p.file_stem())
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| builtin::NAME.to_string());
+    PathBuf::from(format!("{stem}.png"))
+}
+
+fn render(args: &RenderArgs) -> Result<()> {
+    let scene = load_scene(args.scene.as_deref(), &args.sampling)?;
+    let options = options(&args.sampling, args.spp, args.time)?;
+    let output = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(args.scene.as_deref()));
+    let (device, sources) = args.device.open()?;
+    if args.verbose {
+        eprintln!("device: {}", device.description);
+    }
+    let mut renderer = Renderer::new(&device, &scene, &sources, options.clone())?;
+    if args.verbose {
+        eprintln!(
+            "program: built in {:.2} s, options `{}`",
+            renderer.program.build_time.as_secs_f64(),
+            renderer.program.options
+        );
+        eprintln!(
+            "scene: {} ({}x{}), {} materials, {} spheres, {} planes",
+            scene.source,
+            renderer.width(),
+            renderer.height(),
+            renderer.packed.materials.len(),
+            renderer.packed.spheres.len(),
+            renderer.packed.planes.len()
+        );
+    }
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        match options.spp {
+            Some(n) => ProgressBar::new(n as u64).with_style(
+                ProgressStyle::with_template(
+                    "{elapsed_precise} [{bar:40}] {pos}/{len} spp  {msg}  ETA {eta}",
+                )?
+                .progress_chars("=> "),
+            ),
+            None => ProgressBar::new_spinner().with_style(ProgressStyle::with_template(
+                "{elapsed_precise} {spinner} {pos} spp  {msg}",
+            )?),
+        }
+    };
+    let (film, stats) = renderer.render(&mut |p: &Progress| {
+        bar.set_position(p.spp_done as u64);
+        bar.set_message(format!("{:.2} Mpaths/s", p.paths_per_second / 1e6));
+    })?;
+    bar.finish_and_clear();
+    film.write(&output)?;
+    eprintln!(
+        "{}: {}x{}, {} spp in {:.2} s ({:.2} Mpaths/s)",
+        output.display(),
+        film.width,
+        film.height,
+        film.spp,
+        stats.elapsed.as_secs_f64(),
+        stats.paths_per_second / 1e6
+    );
+    if args.verbose {
+        eprintln!("{} passes, {} launches", stats.passes, stats.launches);
+    }
+    Ok(())
+}
+
+fn devices() -> Result<()> {
+    for (_, _, d) in device::list()? {
+        println!("{d}");
+    }
+    Ok(())
+}
+
+fn bench(args: &BenchArgs) -> Result<()> {
+    let (device, sources) = args.device.open()?;
+    println!("device: {}", device.description);
+    println!(
+        "| scene | size | spp | first build s | render s | samples/s (spp/s) | Mpaths/s |\n\
+         |---|---|---|---|---|---|---|"
+    );
+    let scenes: Vec<Option<&Path>> = if args.scenes.is_empty() {
+        vec![None]
+    } else {
+        args.scenes.iter().map(|p| Some(p.as_path())).collect()
+    };
+    for path in scenes {
+        let name = path.map_or(builtin::NAME.to_string(), |p| p.display().to_string());
+        let scene = load_scene(path, &args.sampling).with_context(|| name.clone())?;
+        // A warm-up render builds the program (filling the driver's cache) and runs the
+        // kernel once; the measured render then times sampling only.
+        let warm = options(&args.sampling, Some(1), None)?;
+        let mut warm_renderer = Renderer::new(&device, &scene, &sources, warm)?;
+        let build_secs = warm_renderer.program.build_time.as_secs_f64();
+        warm_renderer.render(&mut |_| {})?;
+        drop(warm_renderer);
+        let measured = options(&args.sampling, Some(args.spp), None)?;
+        let (film, stats) =
+            Renderer::new(&device, &scene, &sources, measured)?.render(&mut |_| {})?;
+        let secs = stats.elapsed.as_secs_f64();
+        println!(
+            "| {name} | {}x{} | {} | {:.2} | {:.3} | {:.2} | {:.2} |",
+            film.width,
+            film.height,
+            film.spp,
+            build_secs,
+            secs,
+            film.spp as f64 / secs,
+            stats.paths_per_second / 1e6
+        );
+    }
+    Ok(())
+}
+
+fn main() -> Result<()> {
+    let cli = Cli::parse();
+    match &cli.command {
+        Command::Render(args) => render(args),
+        Command::Devices => devices(),
+        Command::Bench(args) => bench(args),
+    }
+}

@@ -1,0 +1,120 @@
+//! The film: per-pixel sums read back from the device, their mean, and the image files written
+//! from it (chosen by extension): `.png` and `.ppm` (8-bit, the original's tone map: clamp to
+//! [0, 1] and gamma 2.2), `.pfm` and `.exr` (linear float radiance, for comparison and merging).
+
+use crate::error::{Error, Result};
+use std::io::Write;
+use std::path::Path;
+
+/// Accumulated samples of a whole image. Row 0 is the bottom row (the camera's y = 0).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel accumulated (equal for every pixel).
+    pub spp: u32,
+    /// Per pixel: the sum of the samples' radiance (rgb; w unused).
+    pub sum: Vec<[f32; 4]>,
+    /// Per pixel: the sum of the squares of the samples' radiance (rgb; w unused).
+    pub sum_sq: Vec<[f32; 4]>,
+}
+
+impl Film {
+    fn index(&self, x: u32, y_from_bottom: u32) -> usize {
+        (y_from_bottom * self.width + x) as usize
+    }
+
+    /// The mean radiance of pixel (x, y), y counted from the bottom.
+    pub fn mean(&self, x: u32, y_from_bottom: u32) -> [f64; 3] {
+        let s = self.sum[self.index(x, y_from_bottom)];
+        let n = self.spp.max(1) as f64;
+        [s[0] as f64 / n, s[1] as f64 / n, s[2] as f64 / n]
+    }
+
+    /// The estimated variance of the mean of pixel (x, y) (per channel): the sample variance
+    /// over spp, from the sums of values and squares.
+    pub fn variance_of_mean(&self, x: u32, y_from_bottom: u32) -> [f64; 3] {
+        let i = self.index(x, y_from_bottom);
+        let n = self.spp as f64;
+        if n < 2.0 {
+            return [f64::INFINITY; 3];
+        }
+        let mut v = [0.0; 3];
+        for (c, out) in v.iter_mut().enumerate() {
+            let mean = self.sum[i][c] as f64 / n;
+            let var = (self.sum_sq[i][c] as f64 / n - mean * mean).max(0.0) * n / (n - 1.0);
+            *out = var / n;
+        }
+        v
+    }
+
+    /// Mean radiance in reading order (top row first), rgb interleaved.
+    pub fn rgb_top_down(&self) -> Vec<f32> {
+        let mut out = Vec::with_capacity((self.width * self.height * 3) as usize);
+        for row in 0..self.height {
+            for x in 0..self.width {
+                let m = self.mean(x, self.height - 1 - row);
+                out.extend(m.iter().map(|&c| c as f32));
+            }
+        }
+        out
+    }
+
+    /// The 8-bit tone map of the original (smallpt's toInt): clamp, gamma 2.2, round.
+    pub fn to_8bit(value: f32) -> u8 {
+        let clamped = if value.is_nan() {
+            0.0
+        } else {
+            value.clamp(0.0, 1.0)
+        };
+        (clamped.powf(1.0 / 2.2) * 255.0 + 0.5) as u8
+    }
+
+    /// Writes the film; the format follows the extension (png, ppm, pfm, exr).
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .unwrap_or_default();
+        let fail = |message: String| Error::Write {
+            path: path.to_path_buf(),
+            message,
+        };
+        match ext.as_str() {
+            "png" => {
+                let bytes: Vec<u8> = self.rgb_top_down().into_iter().map(Film::to_8bit).collect();
+                image::RgbImage::from_raw(self.width, self.height, bytes)
+                    .ok_or_else(|| fail("image size mismatch".into()))?
+                    .save_with_format(path, image::ImageFormat::Png)
+                    .map_err(|e| fail(e.to_string()))
+            }
+            "ppm" => {
+                let mut data = format!("P6\n{} {}\n255\n", self.width, self.height).into_bytes();
+                data.extend(self.rgb_top_down().into_iter().map(Film::to_8bit));
+                std::fs::write(path, data).map_err(|e| fail(e.to_string()))
+            }
+            "pfm" => {
+                // PFM stores rows bottom to top; a negative scale means little-endian.
+                let mut data = Vec::new();
+                write!(data, "PF\n{} {}\n-1.0\n", self.width, self.height)
+                    .map_err(|e| fail(e.to_string()))?;
+                for y in 0..self.height {
+                    for x in 0..self.width {
+                        for c in self.mean(x, y) {
+                            data.extend_from_slice(&(c as f32).to_le_bytes());
+                        }
+                    }
+                }
+                std::fs::write(path, data).map_err(|e| fail(e.to_string()))
+            }
+            "exr" => image::Rgb32FImage::from_raw(self.width, self.height, self.rgb_top_down())
+                .ok_or_else(|| fail("image size mismatch".into()))?
+                .save_with_format(path, image::ImageFormat::OpenExr)
+                .map_err(|e| fail(e.to_string())),
+            _ => Err(fail(format!(
+                "unknown image format `.{ext}`: use .png, .ppm, .pfm or .exr"
+            ))),
+        }
+    }
+}

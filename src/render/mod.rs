@@ -1,0 +1,276 @@
+//! The progressive render loop (host side of pathtracer.cuh and main.cu): build the program,
+//! upload the scene, then launch passes of samples until `--spp` or `--time` is reached, and
+//! read the film back.
+//!
+//! Each launch covers a band of rows and a run of sample indices, sized from the measured rate
+//! so that one launch takes about `launch_target` (100 ms by default): long enough to keep a GPU
+//! busy, short enough that a display GPU's watchdog never fires. Every pass ends with all
+//! pixels at the same sample count, and the kernel adds samples one at a time onto the running
+//! sums, so the image does not depend on how the work was split.
+
+pub mod film;
+
+use crate::device::Device;
+use crate::device::layout::RenderParams;
+use crate::device::program::{self, BuiltProgram, KernelSources};
+use crate::device::upload::{PackedScene, SceneBuffers};
+use crate::error::{Error, Result};
+use crate::scene::Scene;
+use film::Film;
+use std::time::{Duration, Instant};
+
+/// Work-group edge: launches are padded to whole 8x8 groups.
+const GROUP: usize = 8;
+
+/// How a render samples and when it stops.
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    /// Samples (paths) per pixel; `None`: no limit (then `time_limit` must be set).
+    pub spp: Option<u32>,
+    /// Stop at the first pass boundary after this much rendering time.
+    pub time_limit: Option<Duration>,
+    /// The 64-bit key of every random number.
+    pub seed: u64,
+    /// Safety cap on bounces. Russian roulette ends paths long before it; the default (65536)
+    /// biases only paths whose throughput survived 65536 bounces.
+    pub max_depth: u32,
+    /// Russian roulette applies from this bounce on.
+    pub rr_depth: u32,
+    /// Wanted duration of one kernel launch.
+    pub launch_target: Duration,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            spp: Some(64),
+            time_limit: None,
+            seed: 0,
+            max_depth: 65536,
+            rr_depth: 3,
+            launch_target: Duration::from_millis(100),
+        }
+    }
+}
+
+/// What the progress callback sees after each pass.
+#[derive(Clone, Debug)]
+pub struct Progress {
+    pub spp_done: u32,
+    pub spp_total: Option<u32>,
+    pub elapsed: Duration,
+    /// Paths (pixel samples) per second so far.
+    pub paths_per_second: f64,
+}
+
+/// What a finished render measured.
+#[derive(Clone, Debug)]
+pub struct RenderStats {
+    pub elapsed: Duration,
+    pub launches: u32,
+    pub passes: u32,
+    pub paths_per_second: f64,
+}
+
+/// A scene loaded on a device, ready to render.
+pub struct Renderer<'d> {
+    device: &'d Device,
+    pub program: BuiltProgram,
+    pub packed: PackedScene,
+    kernel: ocl::Kernel,
+    // The kernel holds these buffers' handles; they live as long as it does.
+    _scene: SceneBuffers,
+    sum: ocl::Buffer<f32>,
+    sum_sq: ocl::Buffer<f32>,
+    options: RenderOptions,
+}
+
+impl<'d> Renderer<'d> {
+    pub fn new(
+        device: &'d Device,
+        scene: &Scene,
+        sources: &KernelSources,
+        options: RenderOptions,
+    ) -> Result<Self> {
+        if options.spp.is_none() && options.time_limit.is_none() {
+            return Err(Error::Invalid(
+                "a render needs a sample count or a time limit".into(),
+            ));
+        }
+        let packed = PackedScene::new(scene)?;
+        let params: RenderParams = packed.params(options.seed, options.max_depth, options.rr_depth);
+        let program = program::build_entry(
+            device,
+            sources,
+            "pathtracer.cl",
+            program::build_options(&[]),
+        )?;
+        let scene_buffers = SceneBuffers::new(device, &packed, &params)?;
+        let pixels = packed.camera.width as usize * packed.camera.height as usize;
+        let film_buffer = || {
+            ocl::Buffer::<f32>::builder()
+                .queue(device.queue.clone())
+                .len(pixels * 4)
+                .fill_val(0.0f32)
+                .build()
+                .map_err(|e| Error::opencl("allocating the film", e))
+        };
+        let sum = film_buffer()?;
+        let sum_sq = film_buffer()?;
+        let kernel = ocl::Kernel::builder()
+            .program(&program.program)
+            .name("render_pass")
+            .queue(device.queue.clone())
+            .global_work_size([GROUP, GROUP])
+            .arg(&scene_buffers.params)
+            .arg(&scene_buffers.materials)
+            .arg(&scene_buffers.spheres)
+            .arg(&scene_buffers.planes)
+            .arg(&sum)
+            .arg(&sum_sq)
+            .arg(0u32)
+            .arg(0u32)
+            .arg(0u32)
+            .arg(0u32)
+            .build()
+            .map_err(|e| Error::opencl("creating the render kernel", e))?;
+        Ok(Renderer {
+            device,
+            program,
+            packed,
+            kernel,
+            _scene: scene_buffers,
+            sum,
+            sum_sq,
+            options,
+        })
+    }
+
+    pub fn width(&self) -> u32 {
+        self.packed.camera.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.packed.camera.height
+    }
+
+    /// One launch: rows [row_start, row_start + rows) x samples [sample_start, +count).
+    fn launch(&self, row_start: u32, rows: u32, sample_start: u32, count: u32) -> Result<()> {
+        let round_up = |n: usize| n.div_ceil(GROUP) * GROUP;
+        let set = |i: u32, v: u32| {
+            self.kernel
+                .set_arg(i, v)
+                .map_err(|e| Error::opencl("setting a kernel argument", e))
+        };
+        set(6, sample_start)?;
+        set(7, count)?;
+        set(8, row_start)?;
+        set(9, rows)?;
+        // SAFETY: the kernel's buffers are alive (owned by self) and sized for the whole
+        // image; the kernel bounds-checks the padded work-items.
+        unsafe {
+            self.kernel
+                .cmd()
+                .global_work_size([round_up(self.width() as usize), round_up(rows as usize)])
+                .local_work_size([GROUP, GROUP])
+                .enq()
+        }
+        .map_err(|e| Error::opencl("launching the render kernel", e))?;
+        self.device
+            .queue
+            .finish()
+            .map_err(|e| Error::opencl("running the render kernel", e))
+    }
+
+    /// Renders until the sample count or time limit, calling `on_progress` after every pass.
+    pub fn render(
+        &mut self,
+        on_progress: &mut dyn FnMut(&Progress),
+    ) -> Result<(Film, RenderStats)> {
+        let (width, height) = (self.width(), self.height());
+        let pixels = width as f64 * height as f64;
+        let target = self.options.launch_target.as_secs_f64().max(1e-3);
+        let total = self.options.spp;
+        let start = Instant::now();
+        let mut spp_done = 0u32;
+        let mut launches = 0u32;
+        let mut passes = 0u32;
+        // The first launch is a small probe (a band of rows, one sample) to measure the rate.
+        let mut rows_per_launch = height.min(GROUP as u32 * 2);
+        let mut spp_per_launch = 1u32;
+        loop {
+            let remaining = total.map_or(u32::MAX, |t| t - spp_done);
+            if remaining == 0 {
+                break;
+            }
+            if let Some(limit) = self.options.time_limit
+                && spp_done > 0
+                && start.elapsed() >= limit
+            {
+                break;
+            }
+            let count = spp_per_launch.min(remaining);
+            let mut pass_rate = f64::INFINITY;
+            let mut row = 0;
+            while row < height {
+                let rows = rows_per_launch.min(height - row);
+                let t0 = Instant::now();
+                self.launch(row, rows, spp_done, count)?;
+                let secs = t0.elapsed().as_secs_f64().max(1e-6);
+                pass_rate = pass_rate.min(rows as f64 * width as f64 * count as f64 / secs);
+                launches += 1;
+                row += rows;
+            }
+            spp_done += count;
+            passes += 1;
+            let elapsed = start.elapsed();
+            on_progress(&Progress {
+                spp_done,
+                spp_total: total,
+                elapsed,
+                paths_per_second: pixels * spp_done as f64 / elapsed.as_secs_f64().max(1e-9),
+            });
+            // Plan the next pass from the slowest launch of this one.
+            let budget = pass_rate * target; // pixel samples per launch
+            if budget >= pixels {
+                rows_per_launch = height;
+                spp_per_launch = ((budget / pixels) as u32).clamp(1, 1 << 16);
+            } else {
+                spp_per_launch = 1;
+                rows_per_launch = ((budget / width as f64) as u32).clamp(1, height);
+            }
+        }
+        let elapsed = start.elapsed();
+        let film = self.read_film(spp_done)?;
+        Ok((
+            film,
+            RenderStats {
+                elapsed,
+                launches,
+                passes,
+                paths_per_second: pixels * spp_done as f64 / elapsed.as_secs_f64().max(1e-9),
+            },
+        ))
+    }
+
+    fn read_film(&self, spp: u32) -> Result<Film> {
+        let read = |buffer: &ocl::Buffer<f32>| -> Result<Vec<[f32; 4]>> {
+            let mut flat = vec![0.0f32; buffer.len()];
+            buffer
+                .read(&mut flat)
+                .enq()
+                .map_err(|e| Error::opencl("reading the film back", e))?;
+            Ok(flat
+                .chunks_exact(4)
+                .map(|c| [c[0], c[1], c[2], c[3]])
+                .collect())
+        };
+        Ok(Film {
+            width: self.width(),
+            height: self.height(),
+            spp,
+            sum: read(&self.sum)?,
+            sum_sq: read(&self.sum_sq)?,
+        })
+    }
+}

@@ -1,0 +1,113 @@
+//! The host-side scene: what a scene file describes, in f64, before anything is packed for the
+//! device. Parsing lives in [`parse`]; the camera's basis in [`camera`]; the built-in default
+//! scene in [`builtin`].
+
+pub mod builtin;
+pub mod camera;
+pub mod parse;
+
+use crate::error::{Location, Warning};
+use glam::DVec3;
+use std::path::PathBuf;
+
+/// `PerspectiveCamera { center direction angle width height flength aperture }`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraDesc {
+    pub center: DVec3,
+    pub direction: DVec3,
+    /// `angle`, in degrees as written; smallpt's basis uses it in radians as a scale.
+    pub angle_deg: f64,
+    pub width: u32,
+    pub height: u32,
+    /// Focus distance; 0 means a pinhole camera.
+    pub flength: f64,
+    /// Lens radius (the original's half-size of its square aperture).
+    pub aperture: f64,
+}
+
+/// `type diff|spec|refr`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum MaterialKind {
+    #[default]
+    Diffuse,
+    Specular,
+    Refractive,
+}
+
+/// Image files named in a material's `texture { }` block, as written in the scene file.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct TextureFiles {
+    pub color: Option<PathBuf>,
+    pub emission: Option<PathBuf>,
+    pub kind: Option<PathBuf>,
+    pub bump: Option<PathBuf>,
+}
+
+impl TextureFiles {
+    pub fn is_empty(&self) -> bool {
+        self.color.is_none()
+            && self.emission.is_none()
+            && self.kind.is_none()
+            && self.bump.is_none()
+    }
+}
+
+/// `Material { [emission V] [color V] [type T] [texture { ... }] }`; defaults: emission 0,
+/// colour 1, diffuse.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub emission: DVec3,
+    pub color: DVec3,
+    pub kind: MaterialKind,
+    pub textures: TextureFiles,
+    pub location: Location,
+}
+
+/// The geometric part of an object.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Shape {
+    /// `Sphere { center V radius F }`.
+    Sphere { center: DVec3, radius: f64 },
+    /// `Plane { normal V offset F range F [centerp V] [dirU V] [dirV V] }`: the points p with
+    /// normal.p = offset (normal as written, normalised by [`Shape::normalized`] users),
+    /// visible from the side the normal points to.
+    Plane {
+        normal: DVec3,
+        offset: f64,
+        range: f64,
+        centerp: DVec3,
+        dir_u: DVec3,
+        dir_v: DVec3,
+    },
+}
+
+/// An object of the `Group` with the material index in force where it was declared.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Object {
+    pub shape: Shape,
+    pub material: usize,
+    pub location: Location,
+}
+
+/// A whole scene file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// Where the scene came from (a path, or `<builtin>`), for messages and output names.
+    pub source: String,
+    pub camera: CameraDesc,
+    pub materials: Vec<Material>,
+    pub objects: Vec<Object>,
+    /// Slips that did not stop the scene from loading, in file order.
+    pub warnings: Vec<Warning>,
+}
+
+impl Scene {
+    /// Reads and parses a scene file.
+    pub fn load(path: &std::path::Path) -> crate::Result<Scene> {
+        let text = std::fs::read_to_string(path).map_err(|source| crate::Error::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Ok(parse::parse_scene(&text, &path.display().to_string())?)
+    }
+}

@@ -1,0 +1,780 @@
+//! Reads a scene file of the original's "seed dialect" into a [`Scene`]; the counterpart of the
+//! course framework's `scene_parser` in the original.
+//!
+//! A scene is three top-level blocks, `PerspectiveCamera`, `Materials` and `Group`, made of
+//! whitespace-separated tokens (the format is described in the original's README, section "The
+//! scene format"). Every original file made of spheres and planes loads. Beyond the original:
+//!
+//! - `#` starts a comment that runs to the end of the line, wherever it appears.
+//! - `{`, `}`, `[` and `]` are tokens of their own even when glued to a word, so `Sphere{` reads
+//!   as `Sphere {` (the original needs spaces around them).
+//! - A byte-order mark at the start of the file is skipped.
+//! - The top-level blocks, and the fields inside a block, may come in any order.
+//!
+//! Slips found in the original's own files load with a [`Warning`]: a `numMaterials` or
+//! `numObjects` count that differs from what the block lists, and a `MaterialIndex` with no
+//! number. Anything else the original would misread is a [`ParseError`] at file:line:column
+//! (columns count characters, a tab is one) naming what was expected and what was found:
+//! unknown words, malformed or non-finite numbers, repeated or missing fields, values out of
+//! range, material indices with no material, blocks left open at the end of the file. `Mesh`,
+//! `TriangleMesh`, `Transform` and `RevSurface` are refused until the issues that bring them land.
+
+use super::{CameraDesc, Material, MaterialKind, Object, Scene, Shape, TextureFiles};
+use crate::error::{Location, ParseError, Warning};
+use glam::DVec3;
+use std::path::PathBuf;
+
+type Result<T> = std::result::Result<T, ParseError>;
+
+/// A field's value with the token of its name, so a repeat can point back at the first one.
+type Slot<'a, T> = Option<(T, Token<'a>)>;
+
+const BLOCKS: [&str; 3] = ["PerspectiveCamera", "Materials", "Group"];
+const CAMERA_FIELDS: [&str; 8] = [
+    "center",
+    "direction",
+    "angle",
+    "width",
+    "height",
+    "flength",
+    "aperture",
+    "}",
+];
+const MATERIAL_FIELDS: [&str; 5] = ["emission", "color", "type", "texture", "}"];
+const TEXTURE_FIELDS: [&str; 5] = ["color", "emission", "type", "bump", "}"];
+const SPHERE_FIELDS: [&str; 3] = ["center", "radius", "}"];
+const PLANE_FIELDS: [&str; 7] = ["normal", "offset", "range", "centerp", "dirU", "dirV", "}"];
+const GROUP_ITEMS: [&str; 4] = ["MaterialIndex", "Sphere", "Plane", "}"];
+
+/// Parses the text of a scene file; `file` names it in locations and becomes [`Scene::source`].
+pub fn parse_scene(text: &str, file: &str) -> Result<Scene> {
+    let mut cur = Cursor::new(text, file);
+    let (mut camera, mut group) = (None, None);
+    let mut materials: Slot<Vec<Material>> = None;
+    while let Some(keyword) = cur.next() {
+        match keyword.text {
+            "PerspectiveCamera" => cur.once(&mut camera, keyword, |c| camera_block(c, keyword))?,
+            "Materials" => cur.once(&mut materials, keyword, |c| materials_block(c, keyword))?,
+            "Group" => {
+                let known = materials.as_ref().map(|(m, _)| m.len());
+                cur.once(&mut group, keyword, |c| group_block(c, keyword, known))?
+            }
+            _ => return Err(cur.expected(Some(keyword), &one_of(&BLOCKS))),
+        }
+    }
+    let (camera, materials, group) = match (camera, materials, group) {
+        (Some((c, _)), Some((m, _)), Some((g, _))) => (c, m, g),
+        (c, m, g) => return Err(cur.missing_blocks([c.is_none(), m.is_none(), g.is_none()])),
+    };
+
+    // A `Group` read before `Materials` could not check its indices then.
+    for (index, token) in group.unchecked {
+        cur.check_index(index, token, materials.len())?;
+    }
+    // Objects before any `MaterialIndex` use material 0, which exists only if some material does.
+    if let Some(object) = group.objects.iter().find(|o| o.material >= materials.len()) {
+        return Err(ParseError {
+            location: object.location.clone(),
+            message: format!(
+                "expected `Materials` to define material {} used by this object, found {} materials",
+                object.material,
+                materials.len()
+            ),
+        });
+    }
+
+    let mut warnings = cur.warnings;
+    warnings.sort_by_key(|w| (w.location.line, w.location.column));
+    Ok(Scene {
+        source: file.to_string(),
+        camera,
+        materials,
+        objects: group.objects,
+        warnings,
+    })
+}
+
+fn camera_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<CameraDesc> {
+    cur.open_block(keyword)?;
+    let (mut center, mut direction, mut angle) = (None, None, None);
+    let (mut width, mut height, mut flength, mut aperture) = (None, None, None, None);
+    let close = loop {
+        let key = cur.field()?;
+        match key.text {
+            "}" => break key,
+            "center" => cur.once(&mut center, key, |c| c.vector("center").map(|(v, _)| v))?,
+            "direction" => cur.once(&mut direction, key, |c| c.nonzero_vector("direction"))?,
+            "angle" => cur.once(&mut angle, key, |c| {
+                c.number_where(
+                    "angle",
+                    |a| a > 0.0 && a < 180.0,
+                    "greater than 0 and less than 180",
+                )
+            })?,
+            "width" => cur.once(&mut width, key, |c| c.image_size("width"))?,
+            "height" => cur.once(&mut height, key, |c| c.image_size("height"))?,
+            "flength" => cur.once(&mut flength, key, |c| c.non_negative("flength"))?,
+            "aperture" => cur.once(&mut aperture, key, |c| c.non_negative("aperture"))?,
+            _ => return Err(cur.unknown_field(key, keyword, &CAMERA_FIELDS)),
+        }
+    };
+    Ok(CameraDesc {
+        center: cur.required(center, "center", keyword, close)?,
+        direction: cur.required(direction, "direction", keyword, close)?,
+        angle_deg: cur.required(angle, "angle", keyword, close)?,
+        width: cur.required(width, "width", keyword, close)?,
+        height: cur.required(height, "height", keyword, close)?,
+        flength: flength.map_or(0.0, |(v, _)| v),
+        aperture: aperture.map_or(0.0, |(v, _)| v),
+    })
+}
+
+fn materials_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Vec<Material>> {
+    cur.open_block(keyword)?;
+    let (declared, count) = cur.count_field("numMaterials")?;
+    let mut materials = Vec::new();
+    loop {
+        let key = cur.field()?;
+        match key.text {
+            "}" => break,
+            "Material" => materials.push(material_block(cur, key)?),
+            _ => return Err(cur.unknown_field(key, keyword, &["Material", "}"])),
+        }
+    }
+    if declared != materials.len() {
+        cur.warn(
+            count,
+            format!(
+                "`numMaterials` declares {declared} materials, but {} `Material` blocks follow",
+                materials.len()
+            ),
+        );
+    }
+    Ok(materials)
+}
+
+fn material_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Material> {
+    cur.open_block(keyword)?;
+    let (mut emission, mut color, mut kind, mut textures) = (None, None, None, None);
+    loop {
+        let key = cur.field()?;
+        match key.text {
+            "}" => break,
+            "emission" => cur.once(&mut emission, key, |c| c.vector("emission").map(|(v, _)| v))?,
+            "color" => cur.once(&mut color, key, |c| c.vector("color").map(|(v, _)| v))?,
+            "type" => cur.once(&mut kind, key, Cursor::material_kind)?,
+            "texture" => cur.once(&mut textures, key, |c| texture_block(c, key))?,
+            _ => return Err(cur.unknown_field(key, keyword, &MATERIAL_FIELDS)),
+        }
+    }
+    Ok(Material {
+        emission: emission.map_or(DVec3::ZERO, |(v, _)| v),
+        color: color.map_or(DVec3::ONE, |(v, _)| v),
+        kind: kind.map(|(v, _)| v).unwrap_or_default(),
+        textures: textures.map(|(v, _)| v).unwrap_or_default(),
+        location: cur.at(keyword),
+    })
+}
+
+fn texture_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<TextureFiles> {
+    cur.open_block(keyword)?;
+    let (mut color, mut emission, mut kind, mut bump) = (None, None, None, None);
+    loop {
+        let key = cur.field()?;
+        match key.text {
+            "}" => break,
+            "color" => cur.once(&mut color, key, |c| c.path("color"))?,
+            "emission" => cur.once(&mut emission, key, |c| c.path("emission"))?,
+            "type" => cur.once(&mut kind, key, |c| c.path("type"))?,
+            "bump" => cur.once(&mut bump, key, |c| c.path("bump"))?,
+            _ => return Err(cur.unknown_field(key, keyword, &TEXTURE_FIELDS)),
+        }
+    }
+    Ok(TextureFiles {
+        color: color.map(|(v, _)| v),
+        emission: emission.map(|(v, _)| v),
+        kind: kind.map(|(v, _)| v),
+        bump: bump.map(|(v, _)| v),
+    })
+}
+
+/// The objects of a `Group`, and the `MaterialIndex` numbers it could not check because no
+/// `Materials` block came before it.
+struct Group<'a> {
+    objects: Vec<Object>,
+    unchecked: Vec<(usize, Token<'a>)>,
+}
+
+fn group_block<'a>(
+    cur: &mut Cursor<'a>,
+    keyword: Token<'a>,
+    material_count: Option<usize>,
+) -> Result<Group<'a>> {
+    cur.open_block(keyword)?;
+    let (declared, count) = cur.count_field("numObjects")?;
+    let mut group = Group {
+        objects: Vec::new(),
+        unchecked: Vec::new(),
+    };
+    let mut material = 0;
+    loop {
+        let key = cur.field()?;
+        let shape = match key.text {
+            "}" => break,
+            "MaterialIndex" => {
+                // The original's case2 ends its group with a bare `MaterialIndex`.
+                if cur
+                    .peek()
+                    .is_some_and(|t| t.text == "}" || is_object(t.text))
+                {
+                    cur.warn(key, "`MaterialIndex` without a number is ignored");
+                    continue;
+                }
+                let (index, token) = cur.count("MaterialIndex")?;
+                match material_count {
+                    Some(n) => cur.check_index(index, token, n)?,
+                    None => group.unchecked.push((index, token)),
+                }
+                material = index;
+                continue;
+            }
+            "Sphere" => sphere_block(cur, key)?,
+            "Plane" => plane_block(cur, key)?,
+            "Mesh" | "TriangleMesh" | "Transform" => return Err(cur.unsupported(key, "meshes")),
+            "RevSurface" => return Err(cur.unsupported(key, "curves")),
+            _ => return Err(cur.unknown_field(key, keyword, &GROUP_ITEMS)),
+        };
+        group.objects.push(Object {
+            shape,
+            material,
+            location: cur.at(key),
+        });
+    }
+    if declared != group.objects.len() {
+        cur.warn(
+            count,
+            format!(
+                "`numObjects` declares {declared} objects, but the group lists {}",
+                group.objects.len()
+            ),
+        );
+    }
+    Ok(group)
+}
+
+fn is_object(word: &str) -> bool {
+    matches!(
+        word,
+        "Sphere" | "Plane" | "Mesh" | "TriangleMesh" | "Transform" | "RevSurface"
+    )
+}
+
+fn sphere_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Shape> {
+    cur.open_block(keyword)?;
+    let (mut center, mut radius) = (None, None);
+    let close = loop {
+        let key = cur.field()?;
+        match key.text {
+            "}" => break key,
+            "center" => cur.once(&mut center, key, |c| c.vector("center").map(|(v, _)| v))?,
+            "radius" => cur.once(&mut radius, key, |c| c.positive("radius"))?,
+            _ => return Err(cur.unknown_field(key, keyword, &SPHERE_FIELDS)),
+        }
+    };
+    Ok(Shape::Sphere {
+        center: cur.required(center, "center", keyword, close)?,
+        radius: cur.required(radius, "radius", keyword, close)?,
+    })
+}
+
+fn plane_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Shape> {
+    cur.open_block(keyword)?;
+    let (mut normal, mut offset, mut range) = (None, None, None);
+    let (mut centerp, mut dir_u, mut dir_v) = (None, None, None);
+    let close = loop {
+        let key = cur.field()?;
+        match key.text {
+            "}" => break key,
+            "normal" => cur.once(&mut normal, key, |c| c.nonzero_vector("normal"))?,
+            "offset" => cur.once(&mut offset, key, |c| c.number("offset").map(|(v, _)| v))?,
+            "range" => cur.once(&mut range, key, |c| c.positive("range"))?,
+            "centerp" => cur.once(&mut centerp, key, |c| c.vector("centerp").map(|(v, _)| v))?,
+            "dirU" => cur.once(&mut dir_u, key, |c| c.vector("dirU").map(|(v, _)| v))?,
+            "dirV" => cur.once(&mut dir_v, key, |c| c.vector("dirV").map(|(v, _)| v))?,
+            _ => return Err(cur.unknown_field(key, keyword, &PLANE_FIELDS)),
+        }
+    };
+    Ok(Shape::Plane {
+        normal: cur.required(normal, "normal", keyword, close)?,
+        offset: cur.required(offset, "offset", keyword, close)?,
+        range: cur.required(range, "range", keyword, close)?,
+        centerp: centerp.map_or(DVec3::ZERO, |(v, _)| v),
+        dir_u: dir_u.map_or(DVec3::ZERO, |(v, _)| v),
+        dir_v: dir_v.map_or(DVec3::ZERO, |(v, _)| v),
+    })
+}
+
+/// "`a`, `b` or `c`".
+fn one_of(words: &[&str]) -> String {
+    listed(words, "or")
+}
+
+fn listed(words: &[&str], conjunction: &str) -> String {
+    let quoted: Vec<String> = words.iter().map(|w| format!("`{w}`")).collect();
+    match quoted.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} {conjunction} {last}", rest.join(", ")),
+        None => String::new(),
+    }
+}
+
+/// A word of the scene file and where it starts (1-based; the column counts characters).
+#[derive(Clone, Copy)]
+struct Token<'a> {
+    text: &'a str,
+    line: usize,
+    column: usize,
+}
+
+fn is_bracket(c: char) -> bool {
+    matches!(c, '{' | '}' | '[' | ']')
+}
+
+/// Splits a scene's text into tokens, skipping whitespace and `#` comments.
+struct Tokenizer<'a> {
+    rest: &'a str,
+    line: usize,
+    column: usize,
+}
+
+impl<'a> Tokenizer<'a> {
+    fn new(text: &'a str) -> Self {
+        Tokenizer {
+            rest: text,
+            line: 1,
+            column: 1,
+        }
+    }
+
+    /// Consumes the next `len` bytes (always a whole number of characters), keeping the line and
+    /// column in step.
+    fn advance(&mut self, len: usize) -> &'a str {
+        let (taken, rest) = self.rest.split_at_checked(len).unwrap_or((self.rest, ""));
+        for c in taken.chars() {
+            if c == '\n' {
+                self.line += 1;
+                self.column = 1;
+            } else {
+                self.column += 1;
+            }
+        }
+        self.rest = rest;
+        taken
+    }
+}
+
+impl<'a> Iterator for Tokenizer<'a> {
+    type Item = Token<'a>;
+
+    fn next(&mut self) -> Option<Token<'a>> {
+        let first = loop {
+            let c = self.rest.chars().next()?;
+            if c == '#' {
+                let comment = self.rest.find('\n').unwrap_or(self.rest.len());
+                self.advance(comment);
+            } else if c.is_whitespace() {
+                self.advance(c.len_utf8());
+            } else {
+                break c;
+            }
+        };
+        let (line, column) = (self.line, self.column);
+        let len = if is_bracket(first) {
+            first.len_utf8()
+        } else {
+            self.rest
+                .find(|c: char| c.is_whitespace() || c == '#' || is_bracket(c))
+                .unwrap_or(self.rest.len())
+        };
+        Some(Token {
+            text: self.advance(len),
+            line,
+            column,
+        })
+    }
+}
+
+/// The parser's position in the token list, the blocks open around it, and the warnings so far.
+struct Cursor<'a> {
+    file: &'a str,
+    tokens: Vec<Token<'a>>,
+    next: usize,
+    /// Just after the last token (1:1 when there is none): where end-of-file errors point.
+    end: Location,
+    /// Keywords of the blocks opened and not yet closed, innermost last.
+    open: Vec<Token<'a>>,
+    warnings: Vec<Warning>,
+}
+
+impl<'a> Cursor<'a> {
+    fn new(text: &'a str, file: &'a str) -> Self {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let tokens: Vec<Token<'a>> = Tokenizer::new(text).collect();
+        let (line, column) = tokens
+            .last()
+            .map_or((1, 1), |t| (t.line, t.column + t.text.chars().count()));
+        Cursor {
+            file,
+            tokens,
+            next: 0,
+            end: Location {
+                file: file.to_string(),
+                line,
+                column,
+            },
+            open: Vec::new(),
+            warnings: Vec::new(),
+        }
+    }
+
+    fn peek(&self) -> Option<Token<'a>> {
+        self.tokens.get(self.next).copied()
+    }
+
+    fn next(&mut self) -> Option<Token<'a>> {
+        let token = self.peek()?;
+        self.next += 1;
+        Some(token)
+    }
+
+    fn at(&self, token: Token) -> Location {
+        Location {
+            file: self.file.to_string(),
+            line: token.line,
+            column: token.column,
+        }
+    }
+
+    fn error_at(&self, token: Token, message: String) -> ParseError {
+        ParseError {
+            location: self.at(token),
+            message,
+        }
+    }
+
+    fn warn(&mut self, token: Token, message: impl Into<String>) {
+        self.warnings.push(Warning {
+            location: self.at(token),
+            message: message.into(),
+        });
+    }
+
+    /// "expected {what}, found `{token}`", or at the end of the file, naming the innermost block
+    /// left open.
+    fn expected(&self, found: Option<Token>, what: &str) -> ParseError {
+        match found {
+            Some(token) => self.error_at(token, format!("expected {what}, found `{}`", token.text)),
+            None => ParseError {
+                location: self.end.clone(),
+                message: match self.open.last() {
+                    Some(block) => format!(
+                        "expected {what}, found end of file inside `{}` opened at {}:{}",
+                        block.text, block.line, block.column
+                    ),
+                    None => format!("expected {what}, found end of file"),
+                },
+            },
+        }
+    }
+
+    fn unknown_field(&self, key: Token, block: Token, fields: &[&str]) -> ParseError {
+        self.expected(
+            Some(key),
+            &format!("{} in `{}`", one_of(fields), block.text),
+        )
+    }
+
+    fn unsupported(&self, keyword: Token, issue: &str) -> ParseError {
+        self.error_at(
+            keyword,
+            format!(
+                "`{}` is not supported yet (it arrives with the {issue} issue)",
+                keyword.text
+            ),
+        )
+    }
+
+    fn missing_blocks(&self, missing: [bool; 3]) -> ParseError {
+        let names: Vec<&str> = BLOCKS
+            .iter()
+            .zip(missing)
+            .filter_map(|(name, absent)| absent.then_some(*name))
+            .collect();
+        let what = match names.as_slice() {
+            [one] => format!("a `{one}` block"),
+            _ => format!("{} blocks", listed(&names, "and")),
+        };
+        ParseError {
+            location: self.end.clone(),
+            message: format!("expected {what}, found end of file"),
+        }
+    }
+
+    /// Consumes the `{` after a block's keyword and marks the block open.
+    fn open_block(&mut self, keyword: Token<'a>) -> Result<()> {
+        match self.next() {
+            Some(token) if token.text == "{" => {
+                self.open.push(keyword);
+                Ok(())
+            }
+            found => Err(self.expected(found, &format!("`{{` after `{}`", keyword.text))),
+        }
+    }
+
+    /// The next token in the innermost open block: a field name, or the `}` that closes it.
+    fn field(&mut self) -> Result<Token<'a>> {
+        match self.next() {
+            Some(token) => {
+                if token.text == "}" {
+                    self.open.pop();
+                }
+                Ok(token)
+            }
+            None => Err(match self.open.last() {
+                Some(block) => ParseError {
+                    location: self.end.clone(),
+                    message: format!(
+                        "expected `}}` to close `{}` opened at {}:{}, found end of file",
+                        block.text, block.line, block.column
+                    ),
+                },
+                None => self.expected(None, "`}`"),
+            }),
+        }
+    }
+
+    /// Reads a field's value into its slot, refusing a field given twice.
+    fn once<T>(
+        &mut self,
+        slot: &mut Slot<'a, T>,
+        key: Token<'a>,
+        value: impl FnOnce(&mut Self) -> Result<T>,
+    ) -> Result<()> {
+        if let Some((_, first)) = slot {
+            return Err(self.error_at(
+                key,
+                format!(
+                    "expected `{}` only once, found it again (first at {}:{})",
+                    key.text, first.line, first.column
+                ),
+            ));
+        }
+        *slot = Some((value(self)?, key));
+        Ok(())
+    }
+
+    /// A required field's value, or an error at the `}` that closed its block without it.
+    fn required<T>(&self, slot: Slot<T>, field: &str, block: Token, close: Token) -> Result<T> {
+        slot.map(|(value, _)| value).ok_or_else(|| {
+            self.error_at(
+                close,
+                format!(
+                    "expected `{field}` in `{}` opened at {}:{}, found `}}`",
+                    block.text, block.line, block.column
+                ),
+            )
+        })
+    }
+
+    fn number(&mut self, field: &str) -> Result<(f64, Token<'a>)> {
+        self.number_for(&format!("`{field}`"))
+    }
+
+    fn number_for(&mut self, what: &str) -> Result<(f64, Token<'a>)> {
+        let found = self.next();
+        match found.map(|t| (t.text.parse::<f64>(), t)) {
+            Some((Ok(value), token)) if value.is_finite() => Ok((value, token)),
+            Some((Ok(_), token)) => {
+                Err(self.expected(Some(token), &format!("a finite number for {what}")))
+            }
+            _ => Err(self.expected(found, &format!("a number for {what}"))),
+        }
+    }
+
+    /// A number that must satisfy `ok`; `rule` says how, after "expected `field` ".
+    fn number_where(&mut self, field: &str, ok: impl Fn(f64) -> bool, rule: &str) -> Result<f64> {
+        let (value, token) = self.number(field)?;
+        if ok(value) {
+            Ok(value)
+        } else {
+            Err(self.error_at(
+                token,
+                format!("expected `{field}` {rule}, found `{}`", token.text),
+            ))
+        }
+    }
+
+    fn positive(&mut self, field: &str) -> Result<f64> {
+        self.number_where(field, |v| v > 0.0, "greater than 0")
+    }
+
+    fn non_negative(&mut self, field: &str) -> Result<f64> {
+        self.number_where(field, |v| v >= 0.0, "of at least 0")
+    }
+
+    /// Three numbers, and the token of the first.
+    fn vector(&mut self, field: &str) -> Result<(DVec3, Token<'a>)> {
+        let what = format!("`{field}`, which takes three");
+        let (x, first) = self.number_for(&what)?;
+        let (y, _) = self.number_for(&what)?;
+        let (z, _) = self.number_for(&what)?;
+        Ok((DVec3::new(x, y, z), first))
+    }
+
+    fn nonzero_vector(&mut self, field: &str) -> Result<DVec3> {
+        let (value, first) = self.vector(field)?;
+        if value == DVec3::ZERO {
+            Err(self.error_at(
+                first,
+                format!("expected a nonzero vector for `{field}`, found the zero vector"),
+            ))
+        } else {
+            Ok(value)
+        }
+    }
+
+    fn integer(&mut self, field: &str) -> Result<(i64, Token<'a>)> {
+        let found = self.next();
+        match found.and_then(|t| Some((t.text.parse::<i64>().ok()?, t))) {
+            Some(integer) => Ok(integer),
+            None => Err(self.expected(found, &format!("an integer for `{field}`"))),
+        }
+    }
+
+    fn count(&mut self, field: &str) -> Result<(usize, Token<'a>)> {
+        let (value, token) = self.integer(field)?;
+        match usize::try_from(value) {
+            Ok(count) => Ok((count, token)),
+            Err(_) => Err(self.expected(
+                Some(token),
+                &format!("a non-negative integer for `{field}`"),
+            )),
+        }
+    }
+
+    /// The `numMaterials N` / `numObjects N` that opens a list block, and the token of `N`.
+    fn count_field(&mut self, key: &str) -> Result<(usize, Token<'a>)> {
+        match self.next() {
+            Some(token) if token.text == key => self.count(key),
+            found => Err(self.expected(found, &format!("`{key}`"))),
+        }
+    }
+
+    fn image_size(&mut self, field: &str) -> Result<u32> {
+        let (value, token) = self.integer(field)?;
+        u32::try_from(value)
+            .ok()
+            .filter(|v| (1..=65536).contains(v))
+            .ok_or_else(|| {
+                self.error_at(
+                    token,
+                    format!(
+                        "expected `{field}` between 1 and 65536, found `{}`",
+                        token.text
+                    ),
+                )
+            })
+    }
+
+    fn check_index(&self, index: usize, token: Token, count: usize) -> Result<()> {
+        if index < count {
+            return Ok(());
+        }
+        let what = match count {
+            0 => "no `MaterialIndex`, as `Materials` lists no material".to_string(),
+            _ => format!("a material index from 0 to {}", count - 1),
+        };
+        Err(self.expected(Some(token), &what))
+    }
+
+    fn material_kind(&mut self) -> Result<MaterialKind> {
+        let found = self.next();
+        match found.map(|t| t.text) {
+            Some("diff") => Ok(MaterialKind::Diffuse),
+            Some("spec") => Ok(MaterialKind::Specular),
+            Some("refr") => Ok(MaterialKind::Refractive),
+            _ => Err(self.expected(
+                found,
+                &format!("{} for `type`", one_of(&["diff", "spec", "refr"])),
+            )),
+        }
+    }
+
+    fn path(&mut self, field: &str) -> Result<PathBuf> {
+        match self.next() {
+            Some(token) if !token.text.starts_with(is_bracket) => Ok(PathBuf::from(token.text)),
+            found => Err(self.expected(found, &format!("a file path for `{field}`"))),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tokens(text: &str) -> Vec<(&str, usize, usize)> {
+        Tokenizer::new(text)
+            .map(|t| (t.text, t.line, t.column))
+            .collect()
+    }
+
+    #[test]
+    fn tokens_carry_line_and_character_column() {
+        assert_eq!(
+            tokens("Sphere {\n\tcenter 1 -2 3.5\n  radius  é9 }"),
+            [
+                ("Sphere", 1, 1),
+                ("{", 1, 8),
+                ("center", 2, 2),
+                ("1", 2, 9),
+                ("-2", 2, 11),
+                ("3.5", 2, 14),
+                ("radius", 3, 3),
+                ("é9", 3, 11),
+                ("}", 3, 14),
+            ]
+        );
+    }
+
+    #[test]
+    fn brackets_split_from_words_and_comments_are_skipped() {
+        assert_eq!(
+            tokens("a{b}[c]# x { y\n#\nd#e\n"),
+            [
+                ("a", 1, 1),
+                ("{", 1, 2),
+                ("b", 1, 3),
+                ("}", 1, 4),
+                ("[", 1, 5),
+                ("c", 1, 6),
+                ("]", 1, 7),
+                ("d", 3, 1),
+            ]
+        );
+    }
+
+    #[test]
+    fn end_of_file_is_just_after_the_last_token() {
+        let cur = Cursor::new("a\n  bé # c\n\n", "f");
+        assert_eq!((cur.end.line, cur.end.column), (2, 5));
+        let empty = Cursor::new(" \n# only a comment\n", "f");
+        assert_eq!((empty.end.line, empty.end.column), (1, 1));
+    }
+
+    #[test]
+    fn lists_read_as_english() {
+        assert_eq!(one_of(&["a"]), "`a`");
+        assert_eq!(one_of(&["a", "b", "c"]), "`a`, `b` or `c`");
+        assert_eq!(listed(&["a", "b"], "and"), "`a` and `b`");
+    }
+}

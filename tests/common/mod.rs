@@ -1,0 +1,80 @@
+//! Shared helpers for the integration tests.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+/// The original project's data (`../shared/seed` beside the checkout, or `$CLPT_SEED_DIR`),
+/// or `None` with a message on stderr when it is absent, so tests that need it skip visibly.
+pub fn seed_dir(test: &str) -> Option<PathBuf> {
+    let dir = std::env::var_os("CLPT_SEED_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/seed"));
+    if dir.join("testcases").is_dir() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "SKIPPED {test}: the original's data is not at {} (set CLPT_SEED_DIR)",
+            dir.display()
+        );
+        None
+    }
+}
+
+/// The OpenCL device the tests run on: `$CLPT_DEVICE`, else the first GPU, else the first
+/// device (PoCL in CI).
+pub fn device() -> clpt::device::Device {
+    match clpt::device::select(None) {
+        Ok(d) => d,
+        Err(e) => panic!("tests need an OpenCL device (run tools/setup-opencl): {e}"),
+    }
+}
+
+pub mod reference;
+
+use clpt::device::Device;
+use clpt::device::program::{self, KernelSources};
+
+/// The probes program (kernels/probes.cl) built for `device`.
+pub fn probes(device: &Device) -> ocl::Program {
+    program::build_entry(device, &KernelSources::Embedded, "probes.cl", String::new())
+        .unwrap_or_else(|e| panic!("{e}"))
+        .program
+}
+
+/// A device buffer holding `data`.
+pub fn buffer<T: ocl::OclPrm>(device: &Device, data: &[T]) -> ocl::Buffer<T> {
+    ocl::Buffer::<T>::builder()
+        .queue(device.queue.clone())
+        .len(data.len())
+        .copy_host_slice(data)
+        .build()
+        .expect("device buffer")
+}
+
+/// A zeroed device buffer of `len` elements.
+pub fn output<T: ocl::OclPrm>(device: &Device, len: usize) -> ocl::Buffer<T> {
+    ocl::Buffer::<T>::builder()
+        .queue(device.queue.clone())
+        .len(len)
+        .fill_val(T::default())
+        .build()
+        .expect("device buffer")
+}
+
+/// Reads a whole buffer back.
+pub fn read<T: ocl::OclPrm>(buffer: &ocl::Buffer<T>) -> Vec<T> {
+    let mut out = vec![T::default(); buffer.len()];
+    buffer.read(&mut out).enq().expect("read back");
+    out
+}
+
+/// Runs `kernel` over `n` work-items and waits.
+pub fn run(kernel: &ocl::Kernel, n: usize) {
+    // SAFETY: every probe writes only its own work-item's records, sized by the caller.
+    unsafe { kernel.cmd().global_work_size(n).enq() }.expect("probe launch");
+    kernel
+        .default_queue()
+        .expect("queue")
+        .finish()
+        .expect("probe run");
+}

@@ -1,0 +1,198 @@
+//! An f64 reference of what the kernels compute, written independently of them: ray/sphere and
+//! ray/plane intersection, the camera, and a path tracer with the same estimator (smallpt's
+//! materials, Russian roulette) but its own random numbers. Inputs are the f32 scene the device
+//! gets, widened exactly to f64, so differences are the device's rounding alone.
+#![allow(dead_code)]
+
+use clpt::device::layout::{self, Plane, Sphere};
+use clpt::device::upload::PackedScene;
+use clpt::scene::camera::CameraBasis;
+use glam::DVec3;
+use rand::{Rng, RngExt};
+
+pub fn v3(a: [f32; 3]) -> DVec3 {
+    DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64)
+}
+
+/// Both roots of |o + t d - c| = r (d unit), computed in f64 with the stable formulas; None if
+/// the ray's line misses.
+pub fn sphere_roots(s: &Sphere, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
+    let c = v3(s.center);
+    let r = s.radius as f64;
+    let f = o - c;
+    let b = f.dot(d);
+    let perp = f - b * d;
+    let disc = r * r - perp.length_squared();
+    if disc < 0.0 {
+        return None;
+    }
+    let cc = (f.length() - r) * (f.length() + r);
+    let q = -(b + disc.sqrt().copysign(b));
+    let (t0, t1) = (cc / q, q);
+    Some(if t0 < t1 { (t0, t1) } else { (t1, t0) })
+}
+
+pub fn sphere_hit(s: &Sphere, o: DVec3, d: DVec3, t_max: f64) -> Option<f64> {
+    let (t0, t1) = sphere_roots(s, o, d)?;
+    [t0, t1].into_iter().find(|&t| t > 0.0 && t < t_max)
+}
+
+pub fn plane_hit(p: &Plane, o: DVec3, d: DVec3, t_max: f64) -> Option<f64> {
+    let n = v3(p.normal);
+    let denom = n.dot(d);
+    if denom >= 0.0 {
+        return None;
+    }
+    let t = (p.offset as f64 - n.dot(o)) / denom;
+    if !(t > 0.0 && t < t_max) {
+        return None;
+    }
+    let rel = o + t * d - n * p.offset as f64;
+    let range = p.range as f64;
+    (rel.abs().max_element() <= range).then_some(t)
+}
+
+/// The object a ray meets first: (t, kind as in objects.h: 1 sphere, 2 plane, index).
+pub fn nearest(scene: &PackedScene, o: DVec3, d: DVec3) -> Option<(f64, u32, usize)> {
+    let mut best: Option<(f64, u32, usize)> = None;
+    for (i, s) in scene.spheres.iter().enumerate() {
+        if let Some(t) = sphere_hit(s, o, d, best.map_or(f64::INFINITY, |b| b.0)) {
+            best = Some((t, 1, i));
+        }
+    }
+    for (i, p) in scene.planes.iter().enumerate() {
+        if let Some(t) = plane_hit(p, o, d, best.map_or(f64::INFINITY, |b| b.0)) {
+            best = Some((t, 2, i));
+        }
+    }
+    best
+}
+
+/// smallpt's tent filter.
+pub fn tent(u: f64) -> f64 {
+    let r = 2.0 * u;
+    if r < 1.0 {
+        r.sqrt() - 1.0
+    } else {
+        1.0 - (2.0 - r).sqrt()
+    }
+}
+
+/// The unnormalised direction through image point (fx, fy) in [-1/2, 1/2]^2 (pinhole).
+pub fn camera_direction(cam: &CameraBasis, px: u32, py: u32, sub: u32, u: [f64; 2]) -> DVec3 {
+    let sx = (sub & 1) as f64;
+    let sy = (sub >> 1) as f64;
+    let fx = ((sx + 0.5 + tent(u[0])) * 0.5 + px as f64) / cam.width as f64 - 0.5;
+    let fy = ((sy + 0.5 + tent(u[1])) * 0.5 + py as f64) / cam.height as f64 - 0.5;
+    cam.cx * fx + cam.cy * fy + cam.forward
+}
+
+/// Shirley and Chiu's concentric disk map.
+pub fn concentric_disk(u: [f64; 2]) -> (f64, f64) {
+    let (x, y) = (2.0 * u[0] - 1.0, 2.0 * u[1] - 1.0);
+    if x == 0.0 && y == 0.0 {
+        return (0.0, 0.0);
+    }
+    let (r, phi) = if x.abs() > y.abs() {
+        (x, std::f64::consts::FRAC_PI_4 * (y / x))
+    } else {
+        (
+            y,
+            std::f64::consts::FRAC_PI_2 - std::f64::consts::FRAC_PI_4 * (x / y),
+        )
+    };
+    (r * phi.cos(), r * phi.sin())
+}
+
+/// A primary ray (origin, unit direction) as camera.h defines it.
+pub fn camera_ray(cam: &CameraBasis, px: u32, py: u32, sub: u32, u: [f64; 4]) -> (DVec3, DVec3) {
+    let d = camera_direction(cam, px, py, sub, [u[0], u[1]]);
+    if cam.focus_distance <= 0.0 {
+        return (cam.origin, d.normalize());
+    }
+    let focus = cam.origin + d * (cam.focus_distance / d.dot(cam.forward));
+    let (lx, ly) = concentric_disk([u[2], u[3]]);
+    let lens =
+        cam.origin + cam.lens_u * (lx * cam.lens_radius) + cam.lens_v * (ly * cam.lens_radius);
+    (lens, (focus - lens).normalize())
+}
+
+fn cosine_direction(n: DVec3, u1: f64, u2: f64) -> DVec3 {
+    let (t, b) = n.any_orthonormal_pair();
+    let phi = 2.0 * std::f64::consts::PI * u1;
+    let r = u2.sqrt();
+    (t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u2).max(0.0).sqrt()).normalize()
+}
+
+/// One path sample through pixel (px, py), sample index `sample`, in f64 with `rng`.
+pub fn trace_path(
+    scene: &PackedScene,
+    px: u32,
+    py: u32,
+    sample: u32,
+    rr_depth: u32,
+    rng: &mut impl Rng,
+) -> DVec3 {
+    let cam = &scene.camera;
+    let u: [f64; 4] = [rng.random(), rng.random(), rng.random(), rng.random()];
+    let (mut o, mut d) = camera_ray(cam, px, py, sample & 3, u);
+    let mut radiance = DVec3::ZERO;
+    let mut throughput = DVec3::ONE;
+    for depth in 0..100_000u32 {
+        let Some((t, kind, index)) = nearest(scene, o, d) else {
+            break;
+        };
+        let p = o + t * d;
+        let (n, material) = if kind == 1 {
+            let s = &scene.spheres[index];
+            ((p - v3(s.center)).normalize(), s.material)
+        } else {
+            let pl = &scene.planes[index];
+            (v3(pl.normal), pl.material)
+        };
+        let m = &scene.materials[material as usize];
+        radiance += throughput * v3(m.emission);
+        let color = v3(m.color);
+        let wo = -d;
+        let cos_o = wo.dot(n);
+        let facing = if cos_o >= 0.0 { n } else { -n };
+        let reflected = 2.0 * wo.dot(facing) * facing - wo;
+        let wi = match m.kind {
+            layout::MATERIAL_SPECULAR => reflected,
+            layout::MATERIAL_REFRACTIVE => {
+                let entering = cos_o > 0.0;
+                let eta = if entering { 1.0 / 1.5 } else { 1.5 };
+                let cos_i = cos_o.abs();
+                let sin2_t = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
+                if sin2_t >= 1.0 {
+                    reflected
+                } else {
+                    let cos_t = (1.0 - sin2_t).sqrt();
+                    let refracted = (-wo * eta + facing * (eta * cos_i - cos_t)).normalize();
+                    let r0 = (0.5f64 / 2.5).powi(2);
+                    let c = 1.0 - if entering { cos_i } else { cos_t };
+                    let fresnel = r0 + (1.0 - r0) * c.powi(5);
+                    if rng.random::<f64>() < fresnel {
+                        reflected
+                    } else {
+                        refracted
+                    }
+                }
+            }
+            _ => cosine_direction(facing, rng.random(), rng.random()),
+        };
+        throughput *= color;
+        let survive = throughput.max_element().min(1.0);
+        if depth + 1 >= rr_depth || survive <= 0.0 {
+            if rng.random::<f64>() >= survive {
+                break;
+            }
+            throughput /= survive;
+        }
+        // f64 leaves room for a plain epsilon at these scales.
+        let side = if wi.dot(n) >= 0.0 { n } else { -n };
+        o = p + side * 1e-7 * (1.0 + p.abs().max_element());
+        d = wi;
+    }
+    radiance
+}
