@@ -16,6 +16,49 @@ inline float error_gamma(float n) {
     return (n * u) / (1.0f - n * u);
 }
 
+/* Error-free transformations (Knuth's TwoSum; TwoProduct through fma, which OpenCL requires to
+ * be correctly rounded): a op b == hi + lo exactly. */
+inline float2 two_sum(float a, float b) {
+    const float s = a + b;
+    const float bb = s - a;
+    return (float2)(s, (a - (s - bb)) + (b - bb));
+}
+
+inline float2 two_prod(float a, float b) {
+    const float p = a * b;
+    return (float2)(p, fma(a, b, -p));
+}
+
+/* |o - c|^2 - r^2 as if computed in twice the precision (the Dot2 scheme of Ogita, Rump and
+ * Oishi, "Accurate sum and dot product", 2005): o - c is split exactly into hi + lo, squares
+ * and r^2 are exact pairs, and the rounding errors are summed apart. Error about
+ * 2u |result| + 32 u^2 (|o - c|^2 + r^2), where plain f32 has 3u (|o - c|^2 + r^2): on a sphere
+ * of radius 1e5 that is 1e-3 instead of 2e3, so the sign of the result, inside or outside,
+ * is right to within 1e-8 of the surface instead of 0.01. */
+inline float sphere_excess(float3 o, float3 c, float r) {
+    const float2 fx = two_sum(o.x, -c.x);
+    const float2 fy = two_sum(o.y, -c.y);
+    const float2 fz = two_sum(o.z, -c.z);
+    float2 p = two_prod(fx.x, fx.x);
+    float s = p.x;
+    float e = p.y;
+    p = two_prod(fy.x, fy.x);
+    float2 t = two_sum(s, p.x);
+    s = t.x;
+    e += t.y + p.y;
+    p = two_prod(fz.x, fz.x);
+    t = two_sum(s, p.x);
+    s = t.x;
+    e += t.y + p.y;
+    p = two_prod(r, r);
+    t = two_sum(s, -p.x);
+    s = t.x;
+    e += t.y - p.y;
+    /* (hi + lo)^2 = hi^2 + 2 hi lo + lo^2: the cross and low terms, small against hi^2. */
+    e += 2.0f * (fx.x * fx.y + fy.x * fy.y + fz.x * fz.y) + (fx.y * fx.y + fy.y * fy.y + fz.y * fz.y);
+    return s + e;
+}
+
 /* The spawn point for leaving p (error bound p_error, geometric normal n) in direction w. */
 inline float3 offset_ray_origin(float3 p, float3 p_error, float3 n, float3 w) {
     const float dist = dot(fabs(n), p_error);

@@ -78,3 +78,56 @@ pub fn run(kernel: &ocl::Kernel, n: usize) {
         .finish()
         .expect("probe run");
 }
+
+use clpt::device::layout::{Material, Plane, Sphere};
+use clpt::device::upload::{PackedScene, SceneBuffers};
+use clpt::scene::CameraDesc;
+use clpt::scene::camera::CameraBasis;
+use glam::DVec3;
+
+/// A packed scene made in code (for probes), with a pinhole camera at `eye` looking down -z.
+pub fn packed(spheres: Vec<Sphere>, planes: Vec<Plane>, materials: Vec<Material>) -> PackedScene {
+    let camera = CameraBasis::new(&CameraDesc {
+        center: DVec3::ZERO,
+        direction: DVec3::new(0.0, 0.0, -1.0),
+        angle_deg: 30.0,
+        width: 16,
+        height: 16,
+        flength: 0.0,
+        aperture: 0.0,
+    })
+    .expect("camera");
+    PackedScene {
+        camera,
+        materials,
+        spheres,
+        planes,
+    }
+}
+
+/// Runs probe_hit: for each (o, d, w), the device's first hit of (o, d) and of the ray it
+/// spawns towards w. Records as documented in probes.cl (16 floats).
+pub fn probe_hits(device: &Device, scene: &PackedScene, rays: &[[f32; 9]]) -> Vec<[f32; 16]> {
+    let params = scene.params(0, 1, 1);
+    let buffers = SceneBuffers::new(device, scene, &params).expect("upload");
+    let flat: Vec<f32> = rays.iter().flatten().copied().collect();
+    let input = buffer(device, &flat);
+    let out = output::<f32>(device, rays.len() * 16);
+    let program = probes(device);
+    let kernel = ocl::Kernel::builder()
+        .program(&program)
+        .name("probe_hit")
+        .queue(device.queue.clone())
+        .arg(&buffers.params)
+        .arg(&buffers.spheres)
+        .arg(&buffers.planes)
+        .arg(&input)
+        .arg(&out)
+        .build()
+        .expect("probe_hit");
+    run(&kernel, rays.len());
+    read(&out)
+        .chunks_exact(16)
+        .map(|c| c.try_into().expect("16 floats"))
+        .collect()
+}

@@ -1,0 +1,256 @@
+//! Whole renders on the device: the analytic furnace (inside a closed diffuse sphere of albedo
+//! rho emitting Le every pixel sees Le / (1 - rho)), determinism (same seed, same bits, however
+//! the work is split; another seed, other bits), and smallpt's region means against an f64
+//! path tracer that lives in the tests. Comparisons are Z-tests on standard errors estimated
+//! from the samples themselves.
+
+mod common;
+
+use clpt::device::program::KernelSources;
+use clpt::render::film::Film;
+use clpt::render::{RenderOptions, Renderer};
+use clpt::scene::Scene;
+use clpt::scene::parse::parse_scene;
+use glam::DVec3;
+use rand::SeedableRng;
+use rand::rngs::SmallRng;
+use std::time::Duration;
+
+/// How many standard errors a mean may stray before a test fails (two-sided p ~ 6e-7 each).
+const Z_LIMIT: f64 = 5.0;
+
+fn render(scene: &Scene, options: RenderOptions) -> Film {
+    let device = common::device();
+    let mut renderer = Renderer::new(&device, scene, &KernelSources::Embedded, options)
+        .unwrap_or_else(|e| panic!("{e}"));
+    renderer
+        .render(&mut |_| {})
+        .unwrap_or_else(|e| panic!("{e}"))
+        .0
+}
+
+fn options(spp: u32, seed: u64) -> RenderOptions {
+    RenderOptions {
+        spp: Some(spp),
+        seed,
+        ..RenderOptions::default()
+    }
+}
+
+/// Mean and standard error of the mean, per channel, over a set of pixels.
+fn region_mean(film: &Film, pixels: &[(u32, u32)]) -> ([f64; 3], [f64; 3]) {
+    let mut mean = [0.0; 3];
+    let mut var = [0.0; 3];
+    for &(x, y) in pixels {
+        let (m, v) = (film.mean(x, y), film.variance_of_mean(x, y));
+        for c in 0..3 {
+            mean[c] += m[c];
+            var[c] += v[c];
+        }
+    }
+    let n = pixels.len() as f64;
+    (mean.map(|m| m / n), var.map(|v| v.sqrt() / n))
+}
+
+fn all_pixels(film: &Film) -> Vec<(u32, u32)> {
+    (0..film.height)
+        .flat_map(|y| (0..film.width).map(move |x| (x, y)))
+        .collect()
+}
+
+fn furnace(camera: &str, emission: [f64; 3], albedo: [f64; 3]) {
+    let text = format!(
+        "PerspectiveCamera {{ {camera} width 32 height 32 }}\n\
+         Materials {{ numMaterials 1 Material {{ emission {} {} {} color {} {} {} }} }}\n\
+         Group {{ numObjects 1 Sphere {{ center 0 0 0 radius 10 }} }}\n",
+        emission[0], emission[1], emission[2], albedo[0], albedo[1], albedo[2]
+    );
+    let scene = parse_scene(&text, "furnace").unwrap();
+    let film = render(&scene, options(64, 11));
+    let (mean, se) = region_mean(&film, &all_pixels(&film));
+    for c in 0..3 {
+        let expected = emission[c] / (1.0 - albedo[c]);
+        let z = (mean[c] - expected) / se[c];
+        eprintln!(
+            "furnace channel {c}: {:.5} +- {:.5}, expected {expected:.5}",
+            mean[c], se[c]
+        );
+        assert!(
+            se[c] < 0.02 * expected,
+            "channel {c}: standard error {} too large to test",
+            se[c]
+        );
+        assert!(
+            z.abs() < Z_LIMIT,
+            "channel {c}: mean {} vs {expected}: z = {z:.2}",
+            mean[c]
+        );
+    }
+}
+
+#[test]
+fn furnace_pinhole_camera() {
+    furnace(
+        "center 0 0 0 direction 0 0 -1 angle 60",
+        [0.3, 0.3, 0.3],
+        [0.2, 0.5, 0.9],
+    );
+}
+
+#[test]
+fn furnace_thin_lens_off_centre() {
+    furnace(
+        "center 3 -2 1 direction 1 1 -1 angle 40 flength 5 aperture 0.5",
+        [0.5, 0.1, 0.05],
+        [0.7, 0.3, 0.95],
+    );
+}
+
+fn smallpt_at(width: u32, height: u32) -> Scene {
+    let mut scene = clpt::scene::builtin::scene().unwrap();
+    scene.camera.width = width;
+    scene.camera.height = height;
+    scene
+}
+
+#[test]
+fn same_seed_same_bits_however_split_other_seed_differs() {
+    let scene = smallpt_at(24, 18);
+    let a = render(&scene, options(8, 7));
+    let tiny_launches = RenderOptions {
+        launch_target: Duration::from_nanos(1),
+        ..options(8, 7)
+    };
+    let b = render(&scene, tiny_launches);
+    let c = render(&scene, options(8, 8));
+    assert_eq!(
+        a.sum, b.sum,
+        "same seed, other launch split: different sums"
+    );
+    assert_eq!(a.sum_sq, b.sum_sq);
+    // Pixels that saw no light under either seed are equal (zero) by nature, and so are pixels
+    // whose every sample saw the light directly (12 each); among the rest, nearly none.
+    let lit: Vec<_> = a
+        .sum
+        .iter()
+        .zip(&c.sum)
+        .filter(|(x, y)| x[..3] != [0.0; 3] || y[..3] != [0.0; 3])
+        .collect();
+    let same = lit.iter().filter(|(x, y)| x == y).count();
+    assert!(lit.len() > a.sum.len() / 4, "only {} lit pixels", lit.len());
+    assert!(
+        same * 10 < lit.len(),
+        "{same} of {} lit pixels equal under another seed",
+        lit.len()
+    );
+}
+
+/// Per-pixel sums of the f64 reference path tracer, on two threads.
+fn reference_film(scene: &Scene, spp: u32) -> Film {
+    let packed = clpt::device::upload::PackedScene::new(scene).unwrap();
+    let (w, h) = (packed.camera.width, packed.camera.height);
+    let mut sum = vec![[0.0f32; 4]; (w * h) as usize];
+    let mut sum_sq = sum.clone();
+    let rows: Vec<u32> = (0..h).collect();
+    let results: Vec<Vec<(usize, [f64; 3], [f64; 3])>> = std::thread::scope(|s| {
+        let handles: Vec<_> = rows
+            .chunks(h.div_ceil(2) as usize)
+            .map(|chunk| {
+                let packed = &packed;
+                s.spawn(move || {
+                    let mut out = Vec::new();
+                    for &y in chunk {
+                        let mut rng = SmallRng::seed_from_u64(1000 + y as u64);
+                        for x in 0..w {
+                            let (mut s1, mut s2) = (DVec3::ZERO, DVec3::ZERO);
+                            for sample in 0..spp {
+                                let l = common::reference::trace_path(
+                                    packed, x, y, sample, 3, &mut rng,
+                                );
+                                s1 += l;
+                                s2 += l * l;
+                            }
+                            out.push(((y * w + x) as usize, s1.to_array(), s2.to_array()));
+                        }
+                    }
+                    out
+                })
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    for (i, s1, s2) in results.into_iter().flatten() {
+        sum[i] = [s1[0] as f32, s1[1] as f32, s1[2] as f32, 0.0];
+        sum_sq[i] = [s2[0] as f32, s2[1] as f32, s2[2] as f32, 0.0];
+    }
+    Film {
+        width: w,
+        height: h,
+        spp,
+        sum,
+        sum_sq,
+    }
+}
+
+#[test]
+fn smallpt_region_means_match_f64_reference() {
+    let scene = smallpt_at(64, 48);
+    let packed = clpt::device::upload::PackedScene::new(&scene).unwrap();
+    let device_film = render(&scene, options(2048, 5));
+    let reference = reference_film(&scene, 1024);
+    // Label each pixel by what its centre ray meets first (f64).
+    let mut regions: Vec<(&str, Vec<(u32, u32)>)> = vec![
+        ("left wall", vec![]),
+        ("right wall", vec![]),
+        ("back wall", vec![]),
+        ("floor", vec![]),
+        ("ceiling", vec![]),
+        ("floor under the light", vec![]),
+        ("mirror ball", vec![]),
+        ("glass ball", vec![]),
+    ];
+    let cam = &packed.camera;
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let d = common::reference::camera_direction(cam, x, y, 0, [0.5, 0.5]).normalize();
+            let Some((t, kind, index)) = common::reference::nearest(&packed, cam.origin, d) else {
+                continue;
+            };
+            let p = cam.origin + t * d;
+            let region = match (kind, index) {
+                (1, i @ 0..=2) => i,
+                (1, 3) => {
+                    if (p.x - 50.0).abs() < 20.0 && (p.z - 81.6).abs() < 20.0 {
+                        regions[5].1.push((x, y));
+                    }
+                    3
+                }
+                (1, 4) => 4,
+                (1, 5) => 6,
+                (1, 6) => 7,
+                _ => continue,
+            };
+            regions[region].1.push((x, y));
+        }
+    }
+    for (name, pixels) in &regions {
+        assert!(pixels.len() >= 20, "{name}: only {} pixels", pixels.len());
+        let (m_dev, se_dev) = region_mean(&device_film, pixels);
+        let (m_ref, se_ref) = region_mean(&reference, pixels);
+        for c in 0..3 {
+            let se = (se_dev[c].powi(2) + se_ref[c].powi(2)).sqrt();
+            let z = (m_dev[c] - m_ref[c]) / se;
+            eprintln!(
+                "{name} channel {c}: device {:.4} +- {:.4}, f64 {:.4} +- {:.4}, z {z:.2}",
+                m_dev[c], se_dev[c], m_ref[c], se_ref[c]
+            );
+            if m_ref[c] > 0.0 {
+                assert!(
+                    se < 0.05 * m_ref[c],
+                    "{name} channel {c}: too noisy to test"
+                );
+            }
+            assert!(z.abs() < Z_LIMIT, "{name} channel {c}: z = {z:.2}");
+        }
+    }
+}
