@@ -145,6 +145,9 @@ fn same_seed_same_bits_however_split_other_seed_differs() {
     );
 }
 
+/// One pixel's f64 result: index, sum of samples, sum of squares.
+type PixelSums = (usize, [f64; 3], [f64; 3]);
+
 /// Per-pixel sums of the f64 reference path tracer, on two threads.
 fn reference_film(scene: &Scene, spp: u32) -> Film {
     let packed = clpt::device::upload::PackedScene::new(scene).unwrap();
@@ -152,7 +155,7 @@ fn reference_film(scene: &Scene, spp: u32) -> Film {
     let mut sum = vec![[0.0f32; 4]; (w * h) as usize];
     let mut sum_sq = sum.clone();
     let rows: Vec<u32> = (0..h).collect();
-    let results: Vec<Vec<(usize, [f64; 3], [f64; 3])>> = std::thread::scope(|s| {
+    let results: Vec<Vec<PixelSums>> = std::thread::scope(|s| {
         let handles: Vec<_> = rows
             .chunks(h.div_ceil(2) as usize)
             .map(|chunk| {
