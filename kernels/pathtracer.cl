@@ -20,6 +20,8 @@
 #include "objects.h"
 #include "material.h"
 
+#define RR_MAX_SURVIVAL 0.95f
+
 inline float max_component(float3 v) {
     return fmax(v.x, fmax(v.y, v.z));
 }
@@ -49,8 +51,11 @@ inline float3 trace_path(__global const RenderParams* params, __global const Mat
         throughput *= material_sample(m->type, vload3(0, m->color), -d, s.n, u, &wi);
 
         /* Russian roulette on the throughput (pbrt-v4 section 14.1.5): unbiased, and it ends
-         * zero-throughput paths (black surfaces, emitters of colour 0) at once. */
-        const float survive = fmin(1.0f, max_component(throughput));
+         * zero-throughput paths (black surfaces, emitters of colour 0) at once. Survival is
+         * capped at 0.95, as Mitsuba 3 does, so even a closed room of albedo 1 (the original's
+         * untextured defaults) ends paths after 20 bounces on average; the 1/survive weight
+         * keeps the estimate unbiased. */
+        const float survive = fmin(RR_MAX_SURVIVAL, max_component(throughput));
         if (depth + 1u >= params->rr_depth || survive <= 0.0f) {
             if (u.w >= survive) {
                 break;

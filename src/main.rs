@@ -3,6 +3,7 @@
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use clpt::device::{self, program::KernelSources};
+use clpt::render::bench::{BenchResult, bench_scene};
 use clpt::render::{Progress, RenderOptions, Renderer};
 use clpt::scene::{Scene, builtin};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -121,7 +122,7 @@ fn load_scene(path: Option<&Path>, sampling: &SamplingArgs) -> Result<Scene> {
         Some(p) => Scene::load(p)?,
         None => builtin::scene()?,
     };
-    for w in &scene.warnings {
+    for w in scene.warnings.iter().chain(&scene.unsupported()) {
         eprintln!("{w}");
     }
     if let Some(w) = sampling.width {
@@ -141,6 +142,9 @@ fn options(sampling: &SamplingArgs, spp: Option<u32>, time: Option<f64>) -> Resu
     };
     if spp == Some(0) {
         bail!("--spp must be at least 1");
+    }
+    if sampling.max_depth == 0 {
+        bail!("--max-depth must be at least 1");
     }
     Ok(RenderOptions {
         spp: spp.or(if time_limit.is_some() { None } else { Some(64) }),
@@ -234,10 +238,7 @@ fn devices() -> Result<()> {
 fn bench(args: &BenchArgs) -> Result<()> {
     let (device, sources) = args.device.open()?;
     println!("device: {}", device.description);
-    println!(
-        "| scene | size | spp | first build s | render s | samples/s (spp/s) | Mpaths/s |\n\
-         |---|---|---|---|---|---|---|"
-    );
+    println!("{}", BenchResult::MARKDOWN_HEADER);
     let scenes: Vec<Option<&Path>> = if args.scenes.is_empty() {
         vec![None]
     } else {
@@ -246,27 +247,9 @@ fn bench(args: &BenchArgs) -> Result<()> {
     for path in scenes {
         let name = path.map_or(builtin::NAME.to_string(), |p| p.display().to_string());
         let scene = load_scene(path, &args.sampling).with_context(|| name.clone())?;
-        // A warm-up render builds the program (filling the driver's cache) and runs the
-        // kernel once; the measured render then times sampling only.
-        let warm = options(&args.sampling, Some(1), None)?;
-        let mut warm_renderer = Renderer::new(&device, &scene, &sources, warm)?;
-        let build_secs = warm_renderer.program.build_time.as_secs_f64();
-        warm_renderer.render(&mut |_| {})?;
-        drop(warm_renderer);
-        let measured = options(&args.sampling, Some(args.spp), None)?;
-        let (film, stats) =
-            Renderer::new(&device, &scene, &sources, measured)?.render(&mut |_| {})?;
-        let secs = stats.elapsed.as_secs_f64();
-        println!(
-            "| {name} | {}x{} | {} | {:.2} | {:.3} | {:.2} | {:.2} |",
-            film.width,
-            film.height,
-            film.spp,
-            build_secs,
-            secs,
-            film.spp as f64 / secs,
-            stats.paths_per_second / 1e6
-        );
+        let options = options(&args.sampling, Some(args.spp), None)?;
+        let result = bench_scene(&device, &sources, &name, &scene, options)?;
+        println!("{}", result.markdown_row());
     }
     Ok(())
 }

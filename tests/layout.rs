@@ -65,9 +65,38 @@ fn build_errors_name_the_kernel_file_and_line() {
 
 #[test]
 fn expansion_emits_line_markers_and_includes_each_file_once() {
-    let src = KernelSources::Embedded.expand("pathtracer.cl").unwrap();
+    let expanded = KernelSources::Embedded.expand("pathtracer.cl").unwrap();
+    let src = &expanded.text;
     assert!(src.starts_with("#line 1 \"pathtracer.cl\"\n"));
     assert_eq!(src.matches("#line 1 \"types.h\"").count(), 1);
     assert!(src.contains("#line 1 \"sphere.h\""));
     assert!(!src.contains("#include"));
+    // The line map: every line of the expanded text names its file and line.
+    for (n, line) in src.lines().enumerate() {
+        let (file, at) = expanded.origin(n + 1).expect("mapped");
+        if !line.starts_with("#line") {
+            let original = clpt::device::program::checkout_kernel_dir().join(file);
+            let text = std::fs::read_to_string(original).unwrap();
+            assert_eq!(text.lines().nth(at - 1), Some(line), "{file}:{at}");
+        }
+    }
+}
+
+#[test]
+fn logs_of_compilers_that_ignore_line_markers_are_mapped_back() {
+    let expanded = KernelSources::Embedded.expand("pathtracer.cl").unwrap();
+    let n = expanded
+        .text
+        .lines()
+        .position(|l| l.contains("PHILOX_M0 *"))
+        .unwrap()
+        + 1;
+    let (file, at) = expanded.origin(n).unwrap();
+    assert_eq!(file, "rng.h");
+    let log = format!("<kernel>:{n}:20: error: something\nnote: unrelated: text\nrng.h:3:1: kept");
+    let mapped = expanded.annotate(&log);
+    assert_eq!(
+        mapped,
+        format!("rng.h:{at}:20: error: something\nnote: unrelated: text\nrng.h:3:1: kept")
+    );
 }

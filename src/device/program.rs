@@ -1,7 +1,9 @@
 //! The one kernel loader: reads kernel sources (embedded in the binary, or from `--kernels DIR`),
 //! resolves `#include "file"` once per file, emits `#line` so the compiler's messages name the
 //! kernel file and line, takes every build option from [`build_options`], and puts the build
-//! log into the error when a build fails.
+//! log into the error when a build fails. Compilers that ignore `#line` (NVIDIA's reports
+//! `<kernel>:LINE:COL`) have their messages mapped back to file and line through the line map
+//! of [`ExpandedSource`].
 
 use super::Device;
 use crate::error::{Error, Result};
@@ -33,6 +35,49 @@ pub enum KernelSources {
     Dir(PathBuf),
 }
 
+/// A complete program source with, for every line of it, the kernel file and line it came from.
+#[derive(Clone, Debug, Default)]
+pub struct ExpandedSource {
+    pub text: String,
+    /// (file, 1-based line) of each line of `text`; `#line` markers map to the line they name.
+    lines: Vec<(String, usize)>,
+}
+
+impl ExpandedSource {
+    fn push(&mut self, line: &str, file: &str, number: usize) {
+        self.text.push_str(line);
+        self.text.push('\n');
+        self.lines.push((file.to_string(), number));
+    }
+
+    /// The kernel file and line of line `n` (1-based) of the expanded text.
+    pub fn origin(&self, n: usize) -> Option<(&str, usize)> {
+        self.lines
+            .get(n.checked_sub(1)?)
+            .map(|(f, l)| (f.as_str(), *l))
+    }
+
+    /// Rewrites compiler messages that name a line of the expanded text (`<kernel>:9:36:` from
+    /// compilers that ignore `#line`, such as NVIDIA's) to name the kernel file and line.
+    pub fn annotate(&self, log: &str) -> String {
+        log.lines()
+            .map(|line| self.annotate_line(line).unwrap_or_else(|| line.to_string()))
+            .collect::<Vec<_>>()
+            .join("\n")
+    }
+
+    fn annotate_line(&self, line: &str) -> Option<String> {
+        let mut parts = line.splitn(3, ':');
+        let (unit, number, rest) = (parts.next()?, parts.next()?, parts.next()?);
+        let known = self.lines.iter().any(|(f, _)| f == unit);
+        if known || unit.is_empty() || unit.contains(char::is_whitespace) {
+            return None;
+        }
+        let (file, at) = self.origin(number.trim().parse().ok()?)?;
+        Some(format!("{file}:{at}:{rest}"))
+    }
+}
+
 impl KernelSources {
     fn read(&self, name: &str) -> Result<String> {
         match self {
@@ -49,25 +94,30 @@ impl KernelSources {
     }
 
     /// The complete program source for `entry`: includes resolved, `#line` markers emitted.
-    pub fn expand(&self, entry: &str) -> Result<String> {
-        let mut out = String::new();
-        let mut done = Vec::new();
-        self.expand_into(entry, &mut out, &mut done, &mut Vec::new())?;
+    pub fn expand(&self, entry: &str) -> Result<ExpandedSource> {
+        let mut out = ExpandedSource::default();
+        self.expand_into(entry, &mut out, &mut Vec::new(), &mut Vec::new())?;
         Ok(out)
     }
 
     /// A generated program (the layout probe) whose own `#include`s resolve here.
-    pub fn expand_text(&self, name: &str, text: &str) -> Result<String> {
-        let mut out = String::new();
-        let mut done = vec![name.to_string()];
-        self.expand_lines(name, text, &mut out, &mut done, &mut vec![name.to_string()])?;
+    pub fn expand_text(&self, name: &str, text: &str) -> Result<ExpandedSource> {
+        let mut out = ExpandedSource::default();
+        let mut stack = vec![name.to_string()];
+        self.expand_lines(
+            name,
+            text,
+            &mut out,
+            &mut vec![name.to_string()],
+            &mut stack,
+        )?;
         Ok(out)
     }
 
     fn expand_into(
         &self,
         name: &str,
-        out: &mut String,
+        out: &mut ExpandedSource,
         done: &mut Vec<String>,
         stack: &mut Vec<String>,
     ) -> Result<()> {
@@ -92,11 +142,11 @@ impl KernelSources {
         &self,
         name: &str,
         text: &str,
-        out: &mut String,
+        out: &mut ExpandedSource,
         done: &mut Vec<String>,
         stack: &mut Vec<String>,
     ) -> Result<()> {
-        out.push_str(&format!("#line 1 \"{name}\"\n"));
+        out.push(&format!("#line 1 \"{name}\""), name, 1);
         for (i, line) in text.lines().enumerate() {
             match include_target(line) {
                 Some(Ok(target)) => {
@@ -112,7 +162,7 @@ impl KernelSources {
                             }
                             other => other,
                         })?;
-                    out.push_str(&format!("#line {} \"{name}\"\n", i + 2));
+                    out.push(&format!("#line {} \"{name}\"", i + 2), name, i + 2);
                 }
                 Some(Err(())) => {
                     return Err(Error::KernelSource(format!(
@@ -121,10 +171,7 @@ impl KernelSources {
                         line.trim()
                     )));
                 }
-                None => {
-                    out.push_str(line);
-                    out.push('\n');
-                }
+                None => out.push(line, name, i + 1),
             }
         }
         Ok(())
@@ -156,15 +203,15 @@ pub fn build_options(defines: &[(&str, String)]) -> String {
 /// A built program with what went into it.
 pub struct BuiltProgram {
     pub program: ocl::Program,
-    pub source: String,
+    pub source: ExpandedSource,
     pub options: String,
     pub build_time: Duration,
 }
 
 /// Builds a complete (already expanded) source for `device`.
-pub fn build(device: &Device, source: String, options: String) -> Result<BuiltProgram> {
+pub fn build(device: &Device, source: ExpandedSource, options: String) -> Result<BuiltProgram> {
     let start = Instant::now();
-    let src = CString::new(source.clone())
+    let src = CString::new(source.text.clone())
         .map_err(|_| Error::KernelSource("kernel source contains a NUL byte".into()))?;
     let opts = CString::new(options.clone())
         .map_err(|_| Error::KernelSource("build options contain a NUL byte".into()))?;
@@ -179,6 +226,7 @@ pub fn build(device: &Device, source: String, options: String) -> Result<BuiltPr
             Ok(ocl::enums::ProgramBuildInfoResult::BuildLog(log)) if !log.trim().is_empty() => log,
             _ => e.to_string(),
         };
+        let log = source.annotate(&log);
         return Err(Error::Build {
             device: device.description.name.clone(),
             options,

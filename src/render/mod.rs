@@ -8,6 +8,7 @@
 //! pixels at the same sample count, and the kernel adds samples one at a time onto the running
 //! sums, so the image does not depend on how the work was split.
 
+pub mod bench;
 pub mod film;
 
 use crate::device::Device;

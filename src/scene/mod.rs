@@ -102,6 +102,26 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// What this scene asks for that clpt does not render yet, one message per material that
+    /// objects use (texture maps arrive with the texture issue; until then the material's
+    /// plain colour and emission are used).
+    pub fn unsupported(&self) -> Vec<Warning> {
+        let mut used: Vec<usize> = self.objects.iter().map(|o| o.material).collect();
+        used.sort_unstable();
+        used.dedup();
+        used.into_iter()
+            .filter_map(|i| self.materials.get(i).map(|m| (i, m)))
+            .filter(|(_, m)| !m.textures.is_empty())
+            .map(|(i, m)| Warning {
+                location: m.location.clone(),
+                message: format!(
+                    "material {i} has texture maps, which clpt does not render yet: \
+                     its plain colour and emission are used"
+                ),
+            })
+            .collect()
+    }
+
     /// Reads and parses a scene file.
     pub fn load(path: &std::path::Path) -> crate::Result<Scene> {
         let text = std::fs::read_to_string(path).map_err(|source| crate::Error::Read {
