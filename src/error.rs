@@ -89,8 +89,24 @@ impl Error {
     pub fn opencl(context: impl Into<String>, err: impl fmt::Display) -> Self {
         Error::OpenCl {
             context: context.into(),
-            message: err.to_string(),
+            message: concise_opencl_message(&err.to_string()),
         }
+    }
+}
+
+/// The `ocl` crate wraps a failing call in a banner of several paragraphs; keep the function
+/// and status lines (`clCreateBuffer`, `CL_INVALID_BUFFER_SIZE (-61)`), or the text as is.
+fn concise_opencl_message(text: &str) -> String {
+    let pick = |prefix: &str| {
+        text.lines()
+            .find_map(|l| l.trim().strip_prefix(prefix).map(|s| s.trim().to_string()))
+    };
+    match (
+        pick("Error executing function:"),
+        pick("Status error code:"),
+    ) {
+        (Some(function), Some(status)) => format!("{function} failed with {status}"),
+        _ => text.trim().to_string(),
     }
 }
 

@@ -209,7 +209,11 @@ fn render(args: &RenderArgs) -> Result<()> {
     };
     let (film, stats) = renderer.render(&mut |p: &Progress| {
         bar.set_position(p.spp_done as u64);
-        bar.set_message(format!("{:.2} Mpaths/s", p.paths_per_second / 1e6));
+        let spp_per_second = p.spp_done as f64 / p.elapsed.as_secs_f64().max(1e-9);
+        bar.set_message(format!(
+            "{spp_per_second:.1} spp/s, {:.2} Mpaths/s",
+            p.paths_per_second / 1e6
+        ));
     })?;
     bar.finish_and_clear();
     film.write(&output)?;

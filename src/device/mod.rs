@@ -122,7 +122,8 @@ pub fn list() -> Result<Vec<(ocl::Platform, ocl::Device, DeviceDescription)>> {
 }
 
 /// Picks a device: `wanted` (or `$CLPT_DEVICE`) as an index into [`list`] or a case-insensitive
-/// substring of the device or platform name; by default the first GPU, else the first device.
+/// substring of the device or platform name; by default the first GPU, else the first CPU,
+/// else the first device.
 pub fn select(wanted: Option<&str>) -> Result<Device> {
     let all = list()?;
     let env = std::env::var(DEVICE_ENV)
@@ -130,7 +131,11 @@ pub fn select(wanted: Option<&str>) -> Result<Device> {
         .filter(|s| !s.trim().is_empty());
     let wanted = wanted.map(str::to_string).or(env);
     let chosen = match wanted.as_deref().map(str::trim) {
-        None => all.iter().position(|(_, _, d)| d.is_gpu).unwrap_or(0),
+        None => all
+            .iter()
+            .position(|(_, _, d)| d.is_gpu)
+            .or_else(|| all.iter().position(|(_, _, d)| d.kind == "CPU"))
+            .unwrap_or(0),
         Some(w) => match w.parse::<usize>() {
             Ok(i) if i < all.len() => i,
             _ => {

@@ -21,7 +21,7 @@ pub struct Film {
 
 impl Film {
     fn index(&self, x: u32, y_from_bottom: u32) -> usize {
-        (y_from_bottom * self.width + x) as usize
+        y_from_bottom as usize * self.width as usize + x as usize
     }
 
     /// The mean radiance of pixel (x, y), y counted from the bottom.
@@ -116,5 +116,97 @@ impl Film {
                 "unknown image format `.{ext}`: use .png, .ppm, .pfm or .exr"
             ))),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 3x2 film whose pixel (x, y) has mean radiance (x, y, 0.25) / 2 at 2 spp.
+    fn film() -> Film {
+        let (width, height, spp) = (3u32, 2u32, 2u32);
+        let sum = (0..height)
+            .flat_map(|y| (0..width).map(move |x| [x as f32, y as f32, 0.25, 0.0]))
+            .collect();
+        Film {
+            width,
+            height,
+            spp,
+            sum_sq: vec![[0.0; 4]; 6],
+            sum,
+        }
+    }
+
+    fn temp(name: &str) -> std::path::PathBuf {
+        std::env::temp_dir().join(format!("clpt-film-{}-{name}", std::process::id()))
+    }
+
+    #[test]
+    fn tone_map_is_the_originals() {
+        assert_eq!(Film::to_8bit(0.0), 0);
+        assert_eq!(Film::to_8bit(1.0), 255);
+        assert_eq!(Film::to_8bit(7.0), 255);
+        assert_eq!(Film::to_8bit(-1.0), 0);
+        assert_eq!(Film::to_8bit(f32::NAN), 0);
+        assert_eq!(
+            Film::to_8bit(0.5),
+            (0.5f32.powf(1.0 / 2.2) * 255.0 + 0.5) as u8
+        );
+    }
+
+    #[test]
+    fn png_and_ppm_hold_the_top_row_first() {
+        let film = film();
+        let png = temp("a.png");
+        film.write(&png).unwrap();
+        let img = image::open(&png).unwrap().to_rgb8();
+        // Top-left of the picture is pixel (0, height - 1): mean (0, 0.5, 0.125).
+        assert_eq!(
+            img.get_pixel(0, 0).0,
+            [0, Film::to_8bit(0.5), Film::to_8bit(0.125)]
+        );
+        assert_eq!(img.get_pixel(2, 1).0, [255, 0, Film::to_8bit(0.125)]);
+        let ppm = temp("a.ppm");
+        film.write(&ppm).unwrap();
+        let bytes = std::fs::read(&ppm).unwrap();
+        let header = b"P6\n3 2\n255\n";
+        assert_eq!(&bytes[..header.len()], header);
+        assert_eq!(&bytes[header.len()..], img.as_raw().as_slice());
+        std::fs::remove_file(png).ok();
+        std::fs::remove_file(ppm).ok();
+    }
+
+    #[test]
+    fn pfm_and_exr_hold_linear_radiance() {
+        let film = film();
+        let pfm = temp("a.pfm");
+        film.write(&pfm).unwrap();
+        let bytes = std::fs::read(&pfm).unwrap();
+        let header = b"PF\n3 2\n-1.0\n";
+        assert_eq!(&bytes[..header.len()], header);
+        let floats: Vec<f32> = bytes[header.len()..]
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        // PFM rows run bottom to top: the first pixel is (0, 0).
+        assert_eq!(&floats[..3], &[0.0, 0.0, 0.125]);
+        assert_eq!(&floats[15..], &[1.0, 0.5, 0.125]);
+        let exr = temp("a.exr");
+        film.write(&exr).unwrap();
+        let img = image::open(&exr).unwrap().to_rgb32f();
+        assert_eq!(img.get_pixel(2, 0).0, [1.0, 0.5, 0.125]);
+        assert_eq!(img.get_pixel(0, 1).0, [0.0, 0.0, 0.125]);
+        std::fs::remove_file(pfm).ok();
+        std::fs::remove_file(exr).ok();
+    }
+
+    #[test]
+    fn unknown_extension_is_an_error() {
+        let err = film()
+            .write(std::path::Path::new("out.jpeg"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(".jpeg") && err.contains(".png"), "{err}");
     }
 }

@@ -224,6 +224,9 @@ impl<'d> Renderer<'d> {
             }
             spp_done += count;
             passes += 1;
+            if spp_done > u32::MAX - (1 << 16) {
+                break; // sample indices are 32-bit
+            }
             let elapsed = start.elapsed();
             on_progress(&Progress {
                 spp_done,

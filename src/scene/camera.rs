@@ -10,6 +10,9 @@ use crate::device::layout;
 use crate::error::{Error, Result};
 use glam::DVec3;
 
+/// The largest image clpt renders, in pixels.
+pub const MAX_PIXELS: u64 = 1 << 30;
+
 /// The image-plane vectors of a camera, in f64 (the f64 reference in the tests uses them too).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraBasis {
@@ -37,6 +40,13 @@ impl CameraBasis {
             return Err(Error::Invalid(
                 "image width and height must be positive".into(),
             ));
+        }
+        // Kernels index pixels with 32-bit integers; 2^30 pixels is also 32 GiB of film.
+        if desc.width as u64 * desc.height as u64 > MAX_PIXELS {
+            return Err(Error::Invalid(format!(
+                "image of {}x{} pixels is larger than clpt's limit of {MAX_PIXELS} pixels",
+                desc.width, desc.height
+            )));
         }
         let a = desc.angle_deg.to_radians();
         let cx = DVec3::new(desc.width as f64 * a / desc.height as f64, 0.0, 0.0);
