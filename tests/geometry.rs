@@ -14,20 +14,6 @@ use rand::{RngExt, SeedableRng};
 /// Unit roundoff of f32.
 const EPS: f64 = 1.0 / 16_777_216.0;
 
-fn unit(rng: &mut SmallRng) -> DVec3 {
-    loop {
-        let v = DVec3::new(
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-        );
-        let l = v.length();
-        if l > 1e-3 && l <= 1.0 {
-            return v / l;
-        }
-    }
-}
-
 fn f32x3(v: DVec3) -> [f32; 3] {
     v.as_vec3().to_array()
 }
@@ -102,12 +88,13 @@ fn sphere_rays(case: &SphereCase, n: usize, rng: &mut SmallRng) -> Vec<[f32; 9]>
     let r = case.sphere.radius as f64;
     let mut rays = Vec::with_capacity(n);
     while rays.len() < n {
-        let o = case.origin_center + unit(rng) * rng.random_range(0.0..case.origin_spread);
-        let w = unit(rng);
+        let o = case.origin_center
+            + common::random_unit(rng) * rng.random_range(0.0..case.origin_spread);
+        let w = common::random_unit(rng);
         let kind = rays.len() % 4;
         let d = match kind {
             0 | 1 => {
-                let target = c + unit(rng) * r * rng.random_range(0.0..1.3);
+                let target = c + common::random_unit(rng) * r * rng.random_range(0.0..1.3);
                 target - o
             }
             2 => {
@@ -116,21 +103,21 @@ fn sphere_rays(case: &SphereCase, n: usize, rng: &mut SmallRng) -> Vec<[f32; 9]>
                 if to_c.length() <= r * 1.01 {
                     // Inside (smallpt's room is inside its wall spheres): no tangent rays;
                     // aim nearly along the surface from a point just inside it instead.
-                    let p = c + unit(rng) * r * (1.0 - 1e-4);
-                    let along = unit(rng).reject_from(p - c).normalize();
+                    let p = c + common::random_unit(rng) * r * (1.0 - 1e-4);
+                    let along = common::random_unit(rng).reject_from(p - c).normalize();
                     rays.push(ray(p, along, w));
                     continue;
                 }
                 let axis = to_c.normalize();
-                let side = unit(rng).reject_from(axis).normalize();
+                let side = common::random_unit(rng).reject_from(axis).normalize();
                 let k = r * (1.0 + rng.random_range(-1e-4..1e-4));
                 let tangent = c + side * k;
                 tangent - o
             }
             _ => {
                 // Origin on the surface (rounded to f32), any direction.
-                let p = c + unit(rng) * r;
-                rays.push(ray(p, unit(rng), w));
+                let p = c + common::random_unit(rng) * r;
+                rays.push(ray(p, common::random_unit(rng), w));
                 continue;
             }
         };
@@ -266,9 +253,11 @@ fn plane_hits_match_f64_and_spawned_rays_never_self_hit() {
         let center = n * offset as f64;
         let mut rays = Vec::new();
         while rays.len() < 100_000 {
-            let o = center + unit(&mut rng) * rng.random_range(0.0..3.0 * range as f64);
-            let target =
-                center + unit(&mut rng).reject_from(n) * rng.random_range(0.0..1.5 * range as f64);
+            let o =
+                center + common::random_unit(&mut rng) * rng.random_range(0.0..3.0 * range as f64);
+            let target = center
+                + common::random_unit(&mut rng).reject_from(n)
+                    * rng.random_range(0.0..1.5 * range as f64);
             let d = if rays.len() % 5 == 0 {
                 // Grazing: nearly parallel to the plane.
                 (target - o).reject_from(n) + n * rng.random_range(-1e-4..1e-4)
@@ -276,7 +265,7 @@ fn plane_hits_match_f64_and_spawned_rays_never_self_hit() {
                 target - o
             };
             if d.length() > 0.0 {
-                rays.push(ray(o, d, unit(&mut rng)));
+                rays.push(ray(o, d, common::random_unit(&mut rng)));
             }
         }
         let out = common::probe_hits(&device, &scene, &rays);

@@ -48,19 +48,6 @@ fn sample(kinds: &[u32], wo_n: &[(DVec3, DVec3)], u: &[[f32; 4]]) -> Vec<(DVec3,
         .collect()
 }
 
-fn unit(rng: &mut SmallRng) -> DVec3 {
-    loop {
-        let v = DVec3::new(
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-        );
-        if (1e-3..=1.0).contains(&v.length()) {
-            return v.normalize();
-        }
-    }
-}
-
 fn uniforms(rng: &mut SmallRng, n: usize) -> Vec<[f32; 4]> {
     (0..n)
         .map(|_| [rng.random(), rng.random(), rng.random(), rng.random()])
@@ -81,7 +68,7 @@ fn lambertian_directions_are_cosine_distributed() {
     for n in normals {
         let wo_n: Vec<(DVec3, DVec3)> = (0..n_samples)
             .map(|i| {
-                let wo = unit(&mut rng);
+                let wo = common::random_unit(&mut rng);
                 // Half the paths arrive from behind the surface.
                 let wo = if (wo.dot(n) >= 0.0) == (i % 2 == 0) {
                     wo
@@ -130,7 +117,7 @@ fn mirror_reflects_exactly() {
     let mut rng = SmallRng::seed_from_u64(22);
     let count = 10_000;
     let wo_n: Vec<(DVec3, DVec3)> = (0..count)
-        .map(|_| (unit(&mut rng), unit(&mut rng)))
+        .map(|_| (common::random_unit(&mut rng), common::random_unit(&mut rng)))
         .collect();
     let out = sample(
         &vec![MATERIAL_SPECULAR; count],

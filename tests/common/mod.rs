@@ -131,3 +131,18 @@ pub fn probe_hits(device: &Device, scene: &PackedScene, rays: &[[f32; 9]]) -> Ve
         .map(|c| c.try_into().expect("16 floats"))
         .collect()
 }
+
+/// A uniformly distributed unit vector (rejection sampling in the unit ball).
+pub fn random_unit(rng: &mut impl rand::Rng) -> DVec3 {
+    use rand::RngExt;
+    loop {
+        let v = DVec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        );
+        if (1e-3..=1.0).contains(&v.length()) {
+            return v.normalize();
+        }
+    }
+}
