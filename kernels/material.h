@@ -11,17 +11,9 @@
 #ifndef CLPT_MATERIAL_H
 #define CLPT_MATERIAL_H
 
-#define GLASS_IOR 1.5f
+#include "vecmath.h"
 
-/* An orthonormal basis around unit n without branches on its direction (Duff et al., "Building
- * an orthonormal basis, revisited", JCGT 2017). */
-inline void orthonormal_basis(float3 n, float3* t, float3* b) {
-    const float sign = copysign(1.0f, n.z);
-    const float a = -1.0f / (sign + n.z);
-    const float c = n.x * n.y * a;
-    *t = (float3)(1.0f + sign * n.x * n.x * a, sign * c, -sign * n.x);
-    *b = (float3)(c, sign + n.y * n.y * a, -n.y);
-}
+#define GLASS_IOR 1.5f
 
 /* Cosine-weighted direction about unit n (Malley's method: a uniform disk point lifted). */
 inline float3 sample_cosine_hemisphere(float3 n, float2 u) {
@@ -36,38 +28,50 @@ inline float3 reflect_about(float3 wo, float3 n) {
     return 2.0f * dot(wo, n) * n - wo;
 }
 
-/* Samples wi for a path arriving from wo at a surface of `type`; returns the throughput
- * weight. u.xy: direction, u.z: reflect or refract. */
-inline float3 material_sample(uint type, float3 color, float3 wo, float3 n, float4 u, float3* wi) {
+/* Samples wi for a path arriving from wo at a surface of `type` with geometric normal n and
+ * shading normal ns (n itself, or bent by a bump map); returns the throughput weight.
+ * u.xy: direction, u.z: reflect or refract. */
+inline float3 material_sample(uint type, float3 color, float3 wo, float3 n, float3 ns, float4 u,
+                              float3* wi) {
     const float cos_o = dot(wo, n);
-    /* The side the path arrived on: diffuse and mirror surfaces scatter back to it. */
-    const float3 facing = cos_o >= 0.0f ? n : -n;
+    /* The side the path arrived on (by the geometric normal), and the shading normal turned to
+     * it: diffuse and mirror surfaces scatter back to that side. */
+    const float3 facing_g = cos_o >= 0.0f ? n : -n;
+    const float3 facing = cos_o >= 0.0f ? ns : -ns;
+    float3 dir;
+    bool transmitted = false;
     if (type == MATERIAL_SPECULAR) {
-        *wi = reflect_about(wo, facing);
-        return color;
-    }
-    if (type == MATERIAL_REFRACTIVE) {
+        dir = reflect_about(wo, facing);
+    } else if (type == MATERIAL_REFRACTIVE) {
         const bool entering = cos_o > 0.0f;
         const float eta = entering ? 1.0f / GLASS_IOR : GLASS_IOR; /* eta_i / eta_t */
-        const float cos_i = fabs(cos_o);
+        const float cos_i = fabs(dot(wo, facing));
         const float sin2_t = eta * eta * fmax(0.0f, 1.0f - cos_i * cos_i);
-        const float3 reflected = reflect_about(wo, facing);
-        if (sin2_t >= 1.0f) {
-            *wi = reflected; /* total internal reflection */
-            return color;
+        dir = reflect_about(wo, facing);
+        if (sin2_t < 1.0f) { /* else total internal reflection */
+            const float cos_t = sqrt(1.0f - sin2_t);
+            /* Schlick with the cosine on the optically thinner side, as smallpt. */
+            const float r0 = ((GLASS_IOR - 1.0f) * (GLASS_IOR - 1.0f)) /
+                             ((GLASS_IOR + 1.0f) * (GLASS_IOR + 1.0f));
+            const float c = 1.0f - (entering ? cos_i : cos_t);
+            const float c2 = c * c;
+            const float fresnel = r0 + (1.0f - r0) * c2 * c2 * c;
+            if (u.z >= fresnel) {
+                dir = normalize(-wo * eta + facing * (eta * cos_i - cos_t));
+                transmitted = true;
+            }
         }
-        const float cos_t = sqrt(1.0f - sin2_t);
-        const float3 refracted = normalize(-wo * eta + facing * (eta * cos_i - cos_t));
-        /* Schlick with the cosine on the optically thinner side, as smallpt. */
-        const float r0 = ((GLASS_IOR - 1.0f) * (GLASS_IOR - 1.0f)) /
-                         ((GLASS_IOR + 1.0f) * (GLASS_IOR + 1.0f));
-        const float c = 1.0f - (entering ? cos_i : cos_t);
-        const float c2 = c * c;
-        const float fresnel = r0 + (1.0f - r0) * c2 * c2 * c;
-        *wi = u.z < fresnel ? reflected : refracted;
-        return color;
+    } else {
+        dir = sample_cosine_hemisphere(facing, u.xy);
     }
-    *wi = sample_cosine_hemisphere(facing, u.xy);
+    /* A bent shading normal can send a reflection below the surface or a transmission back
+     * above it: mirror such a direction across the geometric surface, so no path leaks
+     * through and no energy is lost. Without a bump map this never happens. */
+    const float side = dot(dir, facing_g);
+    if (transmitted ? side > 0.0f : side < 0.0f) {
+        dir -= 2.0f * side * facing_g;
+    }
+    *wi = dir;
     return color;
 }
 

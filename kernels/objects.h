@@ -66,4 +66,16 @@ inline Surface scene_surface(__global const Sphere* spheres, __global const Plan
     return s;
 }
 
+/* Where a hit falls on its object's texture: (u, v) and the unit directions of increasing u
+ * and v (for bump maps). */
+inline float2 scene_mapping(__global const Sphere* spheres, __global const Plane* planes, Hit hit,
+                            Surface s, float3* dpdu, float3* dpdv) {
+    if (hit.kind == HIT_SPHERE) {
+        sphere_tangents(s.n, dpdu, dpdv);
+        return sphere_uv(s.n);
+    }
+    plane_tangents(&planes[hit.index], dpdu, dpdv);
+    return plane_uv(&planes[hit.index], s.p);
+}
+
 #endif

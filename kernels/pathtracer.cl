@@ -1,7 +1,7 @@
 /* pathtracer.cl: the render kernel (port of pathtracer.cuh and main.cu's renderPixel).
  *
- * Reads: RenderParams (camera, counts, seed, depth settings), the Material, Sphere and Plane
- * arrays. Writes: adds, for every pixel of rows [row_start, row_start + row_count), the
+ * Reads: RenderParams (camera, counts, seed, depth settings, texture filter), the Material,
+ * Sphere and Plane arrays, the TextureMap table and the texel bytes. Writes: adds, for every pixel of rows [row_start, row_start + row_count), the
  * `sample_count` path samples of indices sample_start... and their squares to `sum` and `sum_sq`
  * (float4 per pixel, .w unused; row 0 is the bottom of the image). Samples are added one at a
  * time onto the running sums, so the image is bit for bit the same however the host splits
@@ -14,21 +14,60 @@
  * ended every path that matters. No sample is clamped.
  */
 #include "types.h"
+#include "vecmath.h"
 #include "rng.h"
 #include "ray.h"
 #include "camera.h"
 #include "objects.h"
+#include "texture.h"
 #include "material.h"
 
 #define RR_MAX_SURVIVAL 0.95f
 
-inline float max_component(float3 v) {
-    return fmax(v.x, fmax(v.y, v.z));
+/* What a material is at one surface point: its plain values, or its maps' values there. */
+typedef struct SurfaceMaterial {
+    float3 emission;
+    float3 color;
+    float3 shading_normal;
+    uint type;
+} SurfaceMaterial;
+
+inline SurfaceMaterial material_at(__global const RenderParams* params,
+                                   __global const Material* m, __global const Sphere* spheres,
+                                   __global const Plane* planes,
+                                   __global const TextureMap* maps,
+                                   __global const uchar* texels, Hit hit, Surface s) {
+    SurfaceMaterial sm;
+    sm.emission = vload3(0, m->emission);
+    sm.color = vload3(0, m->color);
+    sm.shading_normal = s.n;
+    sm.type = m->type;
+    if ((m->color_map & m->emission_map & m->type_map & m->bump_map) == MAP_NONE) {
+        return sm; /* no maps */
+    }
+    float3 dpdu, dpdv;
+    const float2 uv = scene_mapping(spheres, planes, hit, s, &dpdu, &dpdv);
+    const uint filter = params->texture_filter;
+    if (m->color_map != MAP_NONE) {
+        sm.color = texture_lookup(maps, texels, m->color_map, uv, filter).xyz;
+    }
+    if (m->emission_map != MAP_NONE) {
+        sm.emission = texture_lookup(maps, texels, m->emission_map, uv, filter).xyz;
+    }
+    if (m->type_map != MAP_NONE) {
+        sm.type = (uint)texture_lookup(maps, texels, m->type_map, uv, filter).x;
+    }
+    if (m->bump_map != MAP_NONE) {
+        const float2 g = texture_lookup(maps, texels, m->bump_map, uv, filter).xy;
+        sm.shading_normal = bump_normal(s.n, dpdu, dpdv, g);
+    }
+    return sm;
 }
 
 /* One path sample: radiance arriving through pixel (px, py) for sample index `sample`. */
 inline float3 trace_path(__global const RenderParams* params, __global const Material* materials,
-                         __global const Sphere* spheres, __global const Plane* planes, uint px,
+                         __global const Sphere* spheres, __global const Plane* planes,
+                         __global const TextureMap* maps, __global const uchar* texels, uint px,
                          uint py, uint sample) {
     const uint pixel = py * params->camera.width + px;
     Rng rng = rng_for_path(params->seed_lo, params->seed_hi, pixel, sample);
@@ -43,12 +82,13 @@ inline float3 trace_path(__global const RenderParams* params, __global const Mat
             break; /* the background is black */
         }
         const Surface s = scene_surface(spheres, planes, hit, o, d);
-        __global const Material* m = &materials[s.material];
-        radiance += throughput * vload3(0, m->emission);
+        const SurfaceMaterial sm =
+            material_at(params, &materials[s.material], spheres, planes, maps, texels, hit, s);
+        radiance += throughput * sm.emission;
 
         const float4 u = rng_next4(&rng);
         float3 wi;
-        throughput *= material_sample(m->type, vload3(0, m->color), -d, s.n, u, &wi);
+        throughput *= material_sample(sm.type, sm.color, -d, s.n, sm.shading_normal, u, &wi);
 
         /* Russian roulette on the throughput (pbrt-v4 section 14.1.5): unbiased, and it ends
          * zero-throughput paths (black surfaces, emitters of colour 0) at once. Survival is
@@ -70,7 +110,8 @@ inline float3 trace_path(__global const RenderParams* params, __global const Mat
 
 __kernel void render_pass(__global const RenderParams* params,
                           __global const Material* materials, __global const Sphere* spheres,
-                          __global const Plane* planes, __global float4* sum,
+                          __global const Plane* planes, __global const TextureMap* maps,
+                          __global const uchar* texels, __global float4* sum,
                           __global float4* sum_sq, uint sample_start, uint sample_count,
                           uint row_start, uint row_count) {
     const uint px = get_global_id(0);
@@ -82,7 +123,8 @@ __kernel void render_pass(__global const RenderParams* params,
     float4 acc = sum[pixel];
     float4 acc_sq = sum_sq[pixel];
     for (uint i = 0u; i < sample_count; ++i) {
-        const float3 l = trace_path(params, materials, spheres, planes, px, py, sample_start + i);
+        const float3 l =
+            trace_path(params, materials, spheres, planes, maps, texels, px, py, sample_start + i);
         acc += (float4)(l, 0.0f);
         acc_sq += (float4)(l * l, 0.0f);
     }

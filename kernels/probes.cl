@@ -4,10 +4,12 @@
  * device routine is checked against an f64 Rust reference (tests/), and these are the doors.
  */
 #include "types.h"
+#include "vecmath.h"
 #include "rng.h"
 #include "ray.h"
 #include "camera.h"
 #include "objects.h"
+#include "texture.h"
 #include "material.h"
 
 /* Philox 4x32-10 on given counters and keys (known-answer tests). */
@@ -76,8 +78,51 @@ __kernel void probe_material(__global const uint* type, __global const float* wo
                              __global const float4* u, __global float* out) {
     const uint i = get_global_id(0);
     float3 wi;
-    const float3 weight = material_sample(type[i], (float3)(1.0f), vload3(2 * i, wo_n),
-                                          vload3(2 * i + 1, wo_n), u[i], &wi);
+    const float3 n = vload3(2 * i + 1, wo_n);
+    const float3 weight = material_sample(type[i], (float3)(1.0f), vload3(2 * i, wo_n), n, n,
+                                          u[i], &wi);
     vstore3(wi, 2 * i, out);
     vstore3(weight, 2 * i + 1, out);
+}
+
+/* Texture coordinates and directions of a hit: input as probe_hit (9 floats, w unused); output
+ * 8 floats: u, v, dpdu[3], dpdv[3] (zeros on a miss). */
+__kernel void probe_mapping(__global const RenderParams* params, __global const Sphere* spheres,
+                            __global const Plane* planes, __global const float* rays,
+                            __global float* out) {
+    const uint i = get_global_id(0);
+    const float3 o = vload3(3 * i, rays);
+    const float3 d = vload3(3 * i + 1, rays);
+    __global float* r = out + 8 * i;
+    for (int k = 0; k < 8; ++k) {
+        r[k] = 0.0f;
+    }
+    const Hit hit = scene_intersect(params, spheres, planes, o, d);
+    if (hit.kind == HIT_NONE) {
+        return;
+    }
+    const Surface s = scene_surface(spheres, planes, hit, o, d);
+    float3 dpdu, dpdv;
+    const float2 uv = scene_mapping(spheres, planes, hit, s, &dpdu, &dpdv);
+    r[0] = uv.x;
+    r[1] = uv.y;
+    vstore3(dpdu, 0, r + 2);
+    vstore3(dpdv, 1, r + 2);
+}
+
+/* Texture lookups: map index and filter per work-item, (u, v) in; the float4 value out. */
+__kernel void probe_texture(__global const TextureMap* maps, __global const uchar* texels,
+                            __global const uint2* index_filter, __global const float2* uv,
+                            __global float4* out) {
+    const uint i = get_global_id(0);
+    out[i] = texture_lookup(maps, texels, index_filter[i].x, uv[i], index_filter[i].y);
+}
+
+/* Bump normals: n, dpdu, dpdv (9 floats) and gradients in; the bent normal out. */
+__kernel void probe_bump(__global const float* frames, __global const float2* g,
+                         __global float* out) {
+    const uint i = get_global_id(0);
+    const float3 n = bump_normal(vload3(3 * i, frames), vload3(3 * i + 1, frames),
+                                 vload3(3 * i + 2, frames), g[i]);
+    vstore3(n, i, out);
 }

@@ -63,4 +63,25 @@ inline void sphere_surface(__global const Sphere* s, float3 o, float3 d, float t
     *p_error = error_gamma(4.0f) * (fabs(*p) + fabs(delta)) + 64.0f * u * u * (length(center) + 2.0f * r);
 }
 
+/* Texture coordinates from the unit outward normal, as the original's sphere.cuh:
+ * u = atan2(n.x, n.z) / 2pi + 1/2 (longitude, 1/2 towards +z), v = n.y / 2 + 1/2 (linear in
+ * height: the south pole is v = 0, the north pole v = 1). */
+inline float2 sphere_uv(float3 n) {
+    return (float2)(atan2(n.x, n.z) * (0.5f / M_PI_F) + 0.5f, n.y * 0.5f + 0.5f);
+}
+
+/* Unit surface directions of increasing u (east) and v (north) at unit normal n. At a pole,
+ * where east is undefined, the directions of longitude u = 1/2 are taken: east = +x, north =
+ * -z at the north pole and +z at the south pole. */
+inline void sphere_tangents(float3 n, float3* dpdu, float3* dpdv) {
+    const float rho = sqrt(n.x * n.x + n.z * n.z);
+    if (rho < 1e-7f) {
+        *dpdu = (float3)(1.0f, 0.0f, 0.0f);
+        *dpdv = (float3)(0.0f, 0.0f, n.y > 0.0f ? -1.0f : 1.0f);
+        return;
+    }
+    *dpdu = (float3)(n.z, 0.0f, -n.x) / rho;
+    *dpdv = (float3)(-n.y * n.x / rho, rho, -n.y * n.z / rho);
+}
+
 #endif

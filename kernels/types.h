@@ -17,6 +17,25 @@
 #define MATERIAL_SPECULAR 1u
 #define MATERIAL_REFRACTIVE 2u
 
+/* Texture map formats (texture.h): each map in the smallest format that holds it. */
+#define MAP_NONE 0xFFFFFFFFu
+#define MAP_RGB8 0u  /* 3 bytes per texel: colour or emission, value / 255 */
+#define MAP_TYPE8 1u /* 1 byte per texel: a MATERIAL_* value */
+#define MAP_BUMP8 2u /* 2 signed bytes per texel: bump gradients (du, dv) * 127 */
+
+/* Texture lookup filters (RenderParams.texture_filter). */
+#define FILTER_BILINEAR 0u
+#define FILTER_NEAREST 1u
+
+/* One texture map inside the scene's texel buffer; row 0 is the top of the image (v = 1). */
+typedef struct TextureMap {
+    uint offset;           /* in bytes */
+    uint width;
+    uint height;
+    uint format;           /* MAP_* */
+} TextureMap;
+CLPT_ASSERT_SIZE(TextureMap, 16);
+
 /* The camera (camera.cuh): smallpt's basis, plus a thin lens when focus_distance > 0.
  * A primary ray through image point (x, y), y = 0 the bottom row, has direction
  * cx*(x/w - 1/2) + cy*(y/h - 1/2) + forward. */
@@ -34,13 +53,18 @@ typedef struct Camera {
 } Camera;
 CLPT_ASSERT_SIZE(Camera, 88);
 
-/* A material (material.cuh). Texture maps arrive with the texture issue. */
+/* A material (material.cuh): plain values, each replaced per texel by its map if it has one
+ * (an index into the TextureMap array, or MAP_NONE). */
 typedef struct Material {
     float emission[3];
     float color[3];
     uint type;             /* MATERIAL_* */
+    uint color_map;
+    uint emission_map;
+    uint type_map;
+    uint bump_map;
 } Material;
-CLPT_ASSERT_SIZE(Material, 28);
+CLPT_ASSERT_SIZE(Material, 44);
 
 /* A sphere (sphere.cuh). */
 typedef struct Sphere {
@@ -73,7 +97,8 @@ typedef struct RenderParams {
     uint seed_hi;
     uint max_depth;        /* safety cap on path length (bounces) */
     uint rr_depth;         /* Russian roulette starts at this depth */
+    uint texture_filter;   /* FILTER_* */
 } RenderParams;
-CLPT_ASSERT_SIZE(RenderParams, 112);
+CLPT_ASSERT_SIZE(RenderParams, 116);
 
 #endif

@@ -67,6 +67,19 @@ pub enum Error {
     )]
     NoPlatform,
 
+    #[error("texture {}: {message}", path.display())]
+    Texture { path: PathBuf, message: String },
+
+    #[error(
+        "{location}: texture file `{written}` not found; tried:\n{}",
+        tried.iter().map(|p| format!("  {}", p.display())).collect::<Vec<_>>().join("\n")
+    )]
+    TextureNotFound {
+        location: Location,
+        written: String,
+        tried: Vec<PathBuf>,
+    },
+
     #[error("kernel source: {0}")]
     KernelSource(String),
 

@@ -4,7 +4,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use clpt::device::{self, program::KernelSources};
 use clpt::render::bench::{BenchResult, bench_scene};
-use clpt::render::{Progress, RenderOptions, Renderer};
+use clpt::render::{Progress, RenderOptions, Renderer, TextureFilter};
 use clpt::scene::{Scene, builtin};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -76,6 +76,12 @@ struct SamplingArgs {
     /// Bounce from which Russian roulette may end a path.
     #[arg(long, default_value_t = 3)]
     rr_depth: u32,
+    /// Texture lookups: bilinear, or nearest (the original's).
+    #[arg(long, default_value = "bilinear")]
+    texture_filter: TextureFilter,
+    /// Largest texture image accepted, in pixels.
+    #[arg(long, default_value_t = clpt::scene::texture::DEFAULT_MAX_PIXELS)]
+    max_texture_pixels: u64,
 }
 
 #[derive(Args)]
@@ -122,7 +128,7 @@ fn load_scene(path: Option<&Path>, sampling: &SamplingArgs) -> Result<Scene> {
         Some(p) => Scene::load(p)?,
         None => builtin::scene()?,
     };
-    for w in scene.warnings.iter().chain(&scene.unsupported()) {
+    for w in &scene.warnings {
         eprintln!("{w}");
     }
     if let Some(w) = sampling.width {
@@ -152,6 +158,8 @@ fn options(sampling: &SamplingArgs, spp: Option<u32>, time: Option<f64>) -> Resu
         seed: sampling.seed,
         max_depth: sampling.max_depth,
         rr_depth: sampling.rr_depth,
+        texture_filter: sampling.texture_filter,
+        max_texture_pixels: sampling.max_texture_pixels,
         ..RenderOptions::default()
     })
 }
@@ -191,6 +199,7 @@ fn render(args: &RenderArgs) -> Result<()> {
             renderer.packed.spheres.len(),
             renderer.packed.planes.len()
         );
+        eprintln!("{}", renderer.packed.textures.report());
     }
     let bar = if args.quiet {
         ProgressBar::hidden()

@@ -330,7 +330,7 @@ fn camera_rays_match_f64() {
         };
         let mut scene = common::packed(vec![], vec![], vec![Default::default()]);
         scene.camera = clpt::scene::camera::CameraBasis::new(&desc).unwrap();
-        let params = scene.params(0, 1, 1);
+        let params = scene.params(0, 1, 1, 0);
         let buffers = clpt::device::upload::SceneBuffers::new(&device, &scene, &params).unwrap();
         let n = 4096;
         let pixels: Vec<ocl::prm::Uint4> = (0..n)

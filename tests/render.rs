@@ -150,7 +150,7 @@ type PixelSums = (usize, [f64; 3], [f64; 3]);
 
 /// Per-pixel sums of the f64 reference path tracer, on two threads.
 fn reference_film(scene: &Scene, spp: u32) -> Film {
-    let packed = clpt::device::upload::PackedScene::new(scene).unwrap();
+    let packed = clpt::device::upload::PackedScene::new(scene, u64::MAX).unwrap();
     let (w, h) = (packed.camera.width, packed.camera.height);
     let mut sum = vec![[0.0f32; 4]; (w * h) as usize];
     let mut sum_sq = sum.clone();
@@ -198,7 +198,7 @@ fn reference_film(scene: &Scene, spp: u32) -> Film {
 #[test]
 fn smallpt_region_means_match_f64_reference() {
     let scene = smallpt_at(64, 48);
-    let packed = clpt::device::upload::PackedScene::new(&scene).unwrap();
+    let packed = clpt::device::upload::PackedScene::new(&scene, u64::MAX).unwrap();
     let device_film = render(&scene, options(2048, 5));
     let reference = reference_film(&scene, 1024);
     // Label each pixel by what its centre ray meets first (f64).

@@ -15,6 +15,30 @@ pub const MATERIAL_SPECULAR: u32 = 1;
 /// `MATERIAL_REFRACTIVE` in `types.h`.
 pub const MATERIAL_REFRACTIVE: u32 = 2;
 
+/// `MAP_NONE` in `types.h`: a material without this map.
+pub const MAP_NONE: u32 = u32::MAX;
+/// `MAP_RGB8` in `types.h`.
+pub const MAP_RGB8: u32 = 0;
+/// `MAP_TYPE8` in `types.h`.
+pub const MAP_TYPE8: u32 = 1;
+/// `MAP_BUMP8` in `types.h`.
+pub const MAP_BUMP8: u32 = 2;
+/// `FILTER_BILINEAR` in `types.h`.
+pub const FILTER_BILINEAR: u32 = 0;
+/// `FILTER_NEAREST` in `types.h`.
+pub const FILTER_NEAREST: u32 = 1;
+
+/// `TextureMap` in `types.h`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TextureMap {
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub format: u32,
+}
+const _: () = assert!(size_of::<TextureMap>() == 16);
+
 /// `Camera` in `types.h`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -39,8 +63,12 @@ pub struct Material {
     pub emission: [f32; 3],
     pub color: [f32; 3],
     pub kind: u32,
+    pub color_map: u32,
+    pub emission_map: u32,
+    pub type_map: u32,
+    pub bump_map: u32,
 }
-const _: () = assert!(size_of::<Material>() == 28);
+const _: () = assert!(size_of::<Material>() == 44);
 
 /// `Sphere` in `types.h`.
 #[repr(C)]
@@ -77,8 +105,9 @@ pub struct RenderParams {
     pub seed_hi: u32,
     pub max_depth: u32,
     pub rr_depth: u32,
+    pub texture_filter: u32,
 }
-const _: () = assert!(size_of::<RenderParams>() == 112);
+const _: () = assert!(size_of::<RenderParams>() == 116);
 
 /// One struct's layout as Rust sees it: its C name, size, and (field name, offset) pairs.
 pub struct StructLayout {
@@ -106,7 +135,13 @@ pub const LAYOUT: &[StructLayout] = &[
         lens_v => "lens_v", lens_radius => "lens_radius", focus_distance => "focus_distance",
         width => "width", height => "height",
     }),
-    layout!(Material, "Material", { emission => "emission", color => "color", kind => "type" }),
+    layout!(TextureMap, "TextureMap", {
+        offset => "offset", width => "width", height => "height", format => "format",
+    }),
+    layout!(Material, "Material", {
+        emission => "emission", color => "color", kind => "type", color_map => "color_map",
+        emission_map => "emission_map", type_map => "type_map", bump_map => "bump_map",
+    }),
     layout!(Sphere, "Sphere", { center => "center", radius => "radius", material => "material" }),
     layout!(Plane, "Plane", {
         normal => "normal", offset => "offset", range => "range", centerp => "centerp",
@@ -115,7 +150,7 @@ pub const LAYOUT: &[StructLayout] = &[
     layout!(RenderParams, "RenderParams", {
         camera => "camera", num_spheres => "num_spheres", num_planes => "num_planes",
         seed_lo => "seed_lo", seed_hi => "seed_hi", max_depth => "max_depth",
-        rr_depth => "rr_depth",
+        rr_depth => "rr_depth", texture_filter => "texture_filter",
     }),
 ];
 

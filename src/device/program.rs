@@ -14,6 +14,8 @@ use std::time::{Duration, Instant};
 /// Every file of `kernels/`, compiled into the binary so an installed clpt needs no sources.
 const EMBEDDED: &[(&str, &str)] = &[
     ("types.h", include_str!("../../kernels/types.h")),
+    ("vecmath.h", include_str!("../../kernels/vecmath.h")),
+    ("texture.h", include_str!("../../kernels/texture.h")),
     ("rng.h", include_str!("../../kernels/rng.h")),
     ("ray.h", include_str!("../../kernels/ray.h")),
     ("camera.h", include_str!("../../kernels/camera.h")),

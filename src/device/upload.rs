@@ -1,20 +1,23 @@
 //! Host scene → device data: packs the f64 scene into the f32 structs of `kernels/types.h`
-//! ([`PackedScene`], testable without a device) and uploads them ([`SceneBuffers`]).
+//! and its texture maps into one texel buffer ([`PackedScene`], testable without a device),
+//! and uploads them ([`SceneBuffers`]).
 
 use super::Device;
 use super::layout::{self, Material, Plane, RenderParams, Sphere};
 use crate::error::{Error, Result};
 use crate::scene::camera::CameraBasis;
+use crate::scene::texture::TexturePack;
 use crate::scene::{MaterialKind, Scene, Shape};
 use glam::DVec3;
 
 /// The scene as the kernels read it.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct PackedScene {
     pub camera: CameraBasis,
     pub materials: Vec<Material>,
     pub spheres: Vec<Sphere>,
     pub planes: Vec<Plane>,
+    pub textures: TexturePack,
 }
 
 fn f32x3(v: DVec3) -> [f32; 3] {
@@ -22,12 +25,15 @@ fn f32x3(v: DVec3) -> [f32; 3] {
 }
 
 impl PackedScene {
-    pub fn new(scene: &Scene) -> Result<PackedScene> {
+    /// Packs `scene`, loading its texture maps (each image at most `max_texture_pixels`).
+    pub fn new(scene: &Scene, max_texture_pixels: u64) -> Result<PackedScene> {
         let camera = CameraBasis::new(&scene.camera)?;
+        let textures = TexturePack::load(scene, max_texture_pixels)?;
         let materials = scene
             .materials
             .iter()
-            .map(|m| Material {
+            .zip(&textures.material_maps)
+            .map(|(m, &[color_map, emission_map, type_map, bump_map])| Material {
                 emission: f32x3(m.emission),
                 color: f32x3(m.color),
                 kind: match m.kind {
@@ -35,6 +41,10 @@ impl PackedScene {
                     MaterialKind::Specular => layout::MATERIAL_SPECULAR,
                     MaterialKind::Refractive => layout::MATERIAL_REFRACTIVE,
                 },
+                color_map,
+                emission_map,
+                type_map,
+                bump_map,
             })
             .collect::<Vec<_>>();
         let mut spheres = Vec::new();
@@ -83,10 +93,17 @@ impl PackedScene {
             materials,
             spheres,
             planes,
+            textures,
         })
     }
 
-    pub fn params(&self, seed: u64, max_depth: u32, rr_depth: u32) -> RenderParams {
+    pub fn params(
+        &self,
+        seed: u64,
+        max_depth: u32,
+        rr_depth: u32,
+        texture_filter: u32,
+    ) -> RenderParams {
         RenderParams {
             camera: self.camera.to_device(),
             num_spheres: self.spheres.len() as u32,
@@ -95,6 +112,7 @@ impl PackedScene {
             seed_hi: (seed >> 32) as u32,
             max_depth,
             rr_depth,
+            texture_filter,
         }
     }
 }
@@ -127,6 +145,8 @@ pub struct SceneBuffers {
     pub materials: ocl::Buffer<u8>,
     pub spheres: ocl::Buffer<u8>,
     pub planes: ocl::Buffer<u8>,
+    pub maps: ocl::Buffer<u8>,
+    pub texels: ocl::Buffer<u8>,
 }
 
 impl SceneBuffers {
@@ -136,6 +156,8 @@ impl SceneBuffers {
             materials: upload_slice(device, &packed.materials)?,
             spheres: upload_slice(device, &packed.spheres)?,
             planes: upload_slice(device, &packed.planes)?,
+            maps: upload_slice(device, &packed.textures.maps)?,
+            texels: upload_slice(device, &packed.textures.texels)?,
         })
     }
 }

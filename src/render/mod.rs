@@ -12,7 +12,7 @@ pub mod bench;
 pub mod film;
 
 use crate::device::Device;
-use crate::device::layout::RenderParams;
+use crate::device::layout::{self, RenderParams};
 use crate::device::program::{self, BuiltProgram, KernelSources};
 use crate::device::upload::{PackedScene, SceneBuffers};
 use crate::error::{Error, Result};
@@ -22,6 +22,27 @@ use std::time::{Duration, Instant};
 
 /// Work-group edge: launches are padded to whole 8x8 groups.
 const GROUP: usize = 8;
+
+/// How texture maps are sampled between texel centres.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TextureFilter {
+    /// Bilinear interpolation of the four nearest texels (type maps are always nearest).
+    #[default]
+    Bilinear,
+    /// The texel the point falls in: the original's lookup.
+    Nearest,
+}
+
+impl std::str::FromStr for TextureFilter {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "bilinear" => Ok(TextureFilter::Bilinear),
+            "nearest" => Ok(TextureFilter::Nearest),
+            other => Err(format!("unknown texture filter `{other}`: use bilinear or nearest")),
+        }
+    }
+}
 
 /// How a render samples and when it stops.
 #[derive(Clone, Debug)]
@@ -39,6 +60,9 @@ pub struct RenderOptions {
     pub rr_depth: u32,
     /// Wanted duration of one kernel launch.
     pub launch_target: Duration,
+    pub texture_filter: TextureFilter,
+    /// Largest texture image accepted, in pixels.
+    pub max_texture_pixels: u64,
 }
 
 impl Default for RenderOptions {
@@ -50,6 +74,8 @@ impl Default for RenderOptions {
             max_depth: 65536,
             rr_depth: 3,
             launch_target: Duration::from_millis(100),
+            texture_filter: TextureFilter::Bilinear,
+            max_texture_pixels: crate::scene::texture::DEFAULT_MAX_PIXELS,
         }
     }
 }
@@ -98,8 +124,13 @@ impl<'d> Renderer<'d> {
                 "a render needs a sample count or a time limit".into(),
             ));
         }
-        let packed = PackedScene::new(scene)?;
-        let params: RenderParams = packed.params(options.seed, options.max_depth, options.rr_depth);
+        let packed = PackedScene::new(scene, options.max_texture_pixels)?;
+        let filter = match options.texture_filter {
+            TextureFilter::Bilinear => layout::FILTER_BILINEAR,
+            TextureFilter::Nearest => layout::FILTER_NEAREST,
+        };
+        let params: RenderParams =
+            packed.params(options.seed, options.max_depth, options.rr_depth, filter);
         let program = program::build_entry(
             device,
             sources,
@@ -127,6 +158,8 @@ impl<'d> Renderer<'d> {
             .arg(&scene_buffers.materials)
             .arg(&scene_buffers.spheres)
             .arg(&scene_buffers.planes)
+            .arg(&scene_buffers.maps)
+            .arg(&scene_buffers.texels)
             .arg(&sum)
             .arg(&sum_sq)
             .arg(0u32)
@@ -163,10 +196,10 @@ impl<'d> Renderer<'d> {
                 .set_arg(i, v)
                 .map_err(|e| Error::opencl("setting a kernel argument", e))
         };
-        set(6, sample_start)?;
-        set(7, count)?;
-        set(8, row_start)?;
-        set(9, rows)?;
+        set(8, sample_start)?;
+        set(9, count)?;
+        set(10, row_start)?;
+        set(11, rows)?;
         // SAFETY: the kernel's buffers are alive (owned by self) and sized for the whole
         // image; the kernel bounds-checks the padded work-items.
         unsafe {

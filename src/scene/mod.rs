@@ -5,10 +5,11 @@
 pub mod builtin;
 pub mod camera;
 pub mod parse;
+pub mod texture;
 
 use crate::error::{Location, Warning};
 use glam::DVec3;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// `PerspectiveCamera { center direction angle width height flength aperture }`.
 #[derive(Clone, Debug, PartialEq)]
@@ -99,35 +100,25 @@ pub struct Scene {
     pub objects: Vec<Object>,
     /// Slips that did not stop the scene from loading, in file order.
     pub warnings: Vec<Warning>,
+    /// The folder of the scene file, where texture paths are looked up first (`None` for
+    /// scenes not read from a file).
+    pub base_dir: Option<PathBuf>,
 }
 
 impl Scene {
-    /// What this scene asks for that clpt does not render yet, one message per material that
-    /// objects use (texture maps arrive with the texture issue; until then the material's
-    /// plain colour and emission are used).
-    pub fn unsupported(&self) -> Vec<Warning> {
-        let mut used: Vec<usize> = self.objects.iter().map(|o| o.material).collect();
-        used.sort_unstable();
-        used.dedup();
-        used.into_iter()
-            .filter_map(|i| self.materials.get(i).map(|m| (i, m)))
-            .filter(|(_, m)| !m.textures.is_empty())
-            .map(|(i, m)| Warning {
-                location: m.location.clone(),
-                message: format!(
-                    "material {i} has texture maps, which clpt does not render yet: \
-                     its plain colour and emission are used"
-                ),
-            })
-            .collect()
-    }
-
     /// Reads and parses a scene file.
-    pub fn load(path: &std::path::Path) -> crate::Result<Scene> {
+    pub fn load(path: &Path) -> crate::Result<Scene> {
         let text = std::fs::read_to_string(path).map_err(|source| crate::Error::Read {
             path: path.to_path_buf(),
             source,
         })?;
-        Ok(parse::parse_scene(&text, &path.display().to_string())?)
+        let mut scene = parse::parse_scene(&text, &path.display().to_string())?;
+        scene.base_dir = Some(
+            path.parent()
+                .map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p })
+                .unwrap_or(Path::new("."))
+                .to_path_buf(),
+        );
+        Ok(scene)
     }
 }

@@ -91,6 +91,7 @@ pub fn parse_scene(text: &str, file: &str) -> Result<Scene> {
         materials,
         objects: group.objects,
         warnings,
+        base_dir: None,
     })
 }
 

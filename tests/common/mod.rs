@@ -102,13 +102,14 @@ pub fn packed(spheres: Vec<Sphere>, planes: Vec<Plane>, materials: Vec<Material>
         materials,
         spheres,
         planes,
+        textures: Default::default(),
     }
 }
 
 /// Runs probe_hit: for each (o, d, w), the device's first hit of (o, d) and of the ray it
 /// spawns towards w. Records as documented in probes.cl (16 floats).
 pub fn probe_hits(device: &Device, scene: &PackedScene, rays: &[[f32; 9]]) -> Vec<[f32; 16]> {
-    let params = scene.params(0, 1, 1);
+    let params = scene.params(0, 1, 1, 0);
     let buffers = SceneBuffers::new(device, scene, &params).expect("upload");
     let flat: Vec<f32> = rays.iter().flatten().copied().collect();
     let input = buffer(device, &flat);
