@@ -33,19 +33,21 @@ impl PackedScene {
             .materials
             .iter()
             .zip(&textures.material_maps)
-            .map(|(m, &[color_map, emission_map, type_map, bump_map])| Material {
-                emission: f32x3(m.emission),
-                color: f32x3(m.color),
-                kind: match m.kind {
-                    MaterialKind::Diffuse => layout::MATERIAL_DIFFUSE,
-                    MaterialKind::Specular => layout::MATERIAL_SPECULAR,
-                    MaterialKind::Refractive => layout::MATERIAL_REFRACTIVE,
+            .map(
+                |(m, &[color_map, emission_map, type_map, bump_map])| Material {
+                    emission: f32x3(m.emission),
+                    color: f32x3(m.color),
+                    kind: match m.kind {
+                        MaterialKind::Diffuse => layout::MATERIAL_DIFFUSE,
+                        MaterialKind::Specular => layout::MATERIAL_SPECULAR,
+                        MaterialKind::Refractive => layout::MATERIAL_REFRACTIVE,
+                    },
+                    color_map,
+                    emission_map,
+                    type_map,
+                    bump_map,
                 },
-                color_map,
-                emission_map,
-                type_map,
-                bump_map,
-            })
+            )
             .collect::<Vec<_>>();
         let mut spheres = Vec::new();
         let mut planes = Vec::new();

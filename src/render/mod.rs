@@ -39,7 +39,9 @@ impl std::str::FromStr for TextureFilter {
         match s {
             "bilinear" => Ok(TextureFilter::Bilinear),
             "nearest" => Ok(TextureFilter::Nearest),
-            other => Err(format!("unknown texture filter `{other}`: use bilinear or nearest")),
+            other => Err(format!(
+                "unknown texture filter `{other}`: use bilinear or nearest"
+            )),
         }
     }
 }

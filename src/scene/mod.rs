@@ -115,7 +115,13 @@ impl Scene {
         let mut scene = parse::parse_scene(&text, &path.display().to_string())?;
         scene.base_dir = Some(
             path.parent()
-                .map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p })
+                .map(|p| {
+                    if p.as_os_str().is_empty() {
+                        Path::new(".")
+                    } else {
+                        p
+                    }
+                })
                 .unwrap_or(Path::new("."))
                 .to_path_buf(),
         );

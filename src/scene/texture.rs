@@ -242,7 +242,8 @@ impl TexturePack {
                 self.texels.extend(image.rgb.iter().flatten());
             }
             MapKind::Type => {
-                self.texels.extend(image.rgb.iter().map(|&t| material_type_of(t) as u8));
+                self.texels
+                    .extend(image.rgb.iter().map(|&t| material_type_of(t) as u8));
             }
             MapKind::Bump => {
                 for row in 0..image.height {
@@ -274,7 +275,11 @@ impl TexturePack {
         if self.info.is_empty() {
             return "textures: none".into();
         }
-        let texels: usize = self.info.iter().map(|m| (m.width * m.height) as usize).sum();
+        let texels: usize = self
+            .info
+            .iter()
+            .map(|m| (m.width * m.height) as usize)
+            .sum();
         let mut out = format!(
             "textures: {} maps, {} texels, {} bytes on the device ({:.2} bytes/texel)",
             self.info.len(),
