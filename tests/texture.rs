@@ -461,25 +461,7 @@ fn plane_and_sphere_mapping_match_f64() {
             sphere_rays,
         ),
     ] {
-        let params = scene.params(0, 1, 1, 0);
-        let buffers = SceneBuffers::new(&device, &scene, &params).unwrap();
-        let flat: Vec<f32> = rays.iter().flatten().copied().collect();
-        let input = common::buffer(&device, &flat);
-        let out = common::output::<f32>(&device, rays.len() * 8);
-        let program = common::probes(&device);
-        let kernel = ocl::Kernel::builder()
-            .program(&program)
-            .name("probe_mapping")
-            .queue(device.queue.clone())
-            .arg(&buffers.params)
-            .arg(&buffers.spheres)
-            .arg(&buffers.planes)
-            .arg(&input)
-            .arg(&out)
-            .build()
-            .unwrap();
-        common::run(&kernel, rays.len());
-        let out = common::read(&out);
+        let out = common::probe_scene_rays(&device, &scene, "probe_mapping", &rays, 8);
         let hits = common::probe_hits(&device, &scene, &rays);
         for ((r, got), hit) in rays.iter().zip(out.chunks_exact(8)).zip(&hits) {
             assert!(hit[1] != 0.0, "ray missed");

@@ -106,18 +106,24 @@ pub fn packed(spheres: Vec<Sphere>, planes: Vec<Plane>, materials: Vec<Material>
     }
 }
 
-/// Runs probe_hit: for each (o, d, w), the device's first hit of (o, d) and of the ray it
-/// spawns towards w. Records as documented in probes.cl (16 floats).
-pub fn probe_hits(device: &Device, scene: &PackedScene, rays: &[[f32; 9]]) -> Vec<[f32; 16]> {
+/// Runs a probe that takes the scene and rays of 9 floats (o, d, w) and writes `width` floats
+/// per ray (probe_hit, probe_mapping in probes.cl).
+pub fn probe_scene_rays(
+    device: &Device,
+    scene: &PackedScene,
+    kernel_name: &str,
+    rays: &[[f32; 9]],
+    width: usize,
+) -> Vec<f32> {
     let params = scene.params(0, 1, 1, 0);
     let buffers = SceneBuffers::new(device, scene, &params).expect("upload");
     let flat: Vec<f32> = rays.iter().flatten().copied().collect();
     let input = buffer(device, &flat);
-    let out = output::<f32>(device, rays.len() * 16);
+    let out = output::<f32>(device, rays.len() * width);
     let program = probes(device);
     let kernel = ocl::Kernel::builder()
         .program(&program)
-        .name("probe_hit")
+        .name(kernel_name)
         .queue(device.queue.clone())
         .arg(&buffers.params)
         .arg(&buffers.spheres)
@@ -125,9 +131,15 @@ pub fn probe_hits(device: &Device, scene: &PackedScene, rays: &[[f32; 9]]) -> Ve
         .arg(&input)
         .arg(&out)
         .build()
-        .expect("probe_hit");
+        .expect(kernel_name);
     run(&kernel, rays.len());
     read(&out)
+}
+
+/// probe_hit: for each (o, d, w), the device's first hit of (o, d) and of the ray it spawns
+/// towards w. Records as documented in probes.cl (16 floats).
+pub fn probe_hits(device: &Device, scene: &PackedScene, rays: &[[f32; 9]]) -> Vec<[f32; 16]> {
+    probe_scene_rays(device, scene, "probe_hit", rays, 16)
         .chunks_exact(16)
         .map(|c| c.try_into().expect("16 floats"))
         .collect()
