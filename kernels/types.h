@@ -36,6 +36,33 @@ typedef struct TextureMap {
 } TextureMap;
 CLPT_ASSERT_SIZE(TextureMap, 16);
 
+/* A kd-tree node over a mesh's triangles (kdtree.h), 8 bytes, in depth-first order: an
+ * interior node's "below" child (coordinates < split) is the next node, its "above" child is at
+ * the index stored in `flags`.
+ *   interior: flags = axis (0, 1, 2) | above_child << 2; data = the split coordinate's bits
+ *   leaf:     flags = 3 | triangle_count << 2;           data = first entry in the mesh's
+ *             triangle index list (the triangles overlapping the leaf) */
+#define KD_LEAF 3u
+typedef struct KdNode {
+    uint flags;
+    uint data;
+} KdNode;
+CLPT_ASSERT_SIZE(KdNode, 8);
+
+/* A node of the object BVH (bvh.h) holding the boxes of both its children, so traversal tests
+ * the two and descends into the nearer one first. A child is another node's index, or
+ * BVH_LEAF | object index, or BVH_EMPTY (only in a one-object tree). */
+#define BVH_LEAF 0x80000000u
+#define BVH_EMPTY 0xFFFFFFFFu
+typedef struct BvhNode {
+    float lo0[3];
+    float hi0[3];
+    float lo1[3];
+    float hi1[3];
+    uint child[2];
+} BvhNode;
+CLPT_ASSERT_SIZE(BvhNode, 56);
+
 /* The camera (camera.cuh): smallpt's basis, plus a thin lens when focus_distance > 0.
  * A primary ray through image point (x, y), y = 0 the bottom row, has direction
  * cx*(x/w - 1/2) + cy*(y/h - 1/2) + forward. */

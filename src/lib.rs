@@ -5,6 +5,7 @@
 //! `kernels/types.h`) → [`device::program`] (the one kernel loader) → [`render`] (passes of
 //! launches) → [`render::film`] (image files).
 
+pub mod accel;
 pub mod device;
 pub mod error;
 pub mod render;

@@ -39,6 +39,78 @@ pub struct TextureMap {
 }
 const _: () = assert!(size_of::<TextureMap>() == 16);
 
+/// `KD_LEAF` in `types.h`: the axis bits of a kd-tree leaf.
+pub const KD_LEAF: u32 = 3;
+/// `BVH_LEAF` in `types.h`: marks a BVH child that is an object.
+pub const BVH_LEAF: u32 = 0x8000_0000;
+/// `BVH_EMPTY` in `types.h`: the missing second child of a one-object BVH.
+pub const BVH_EMPTY: u32 = u32::MAX;
+
+/// `KdNode` in `types.h`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct KdNode {
+    pub flags: u32,
+    pub data: u32,
+}
+const _: () = assert!(size_of::<KdNode>() == 8);
+
+impl KdNode {
+    pub fn interior(axis: usize, split: f32, above_child: u32) -> KdNode {
+        KdNode {
+            flags: axis as u32 | (above_child << 2),
+            data: split.to_bits(),
+        }
+    }
+
+    pub fn leaf(first_index: u32, count: u32) -> KdNode {
+        KdNode {
+            flags: KD_LEAF | (count << 2),
+            data: first_index,
+        }
+    }
+
+    pub fn is_leaf(&self) -> bool {
+        self.flags & 3 == KD_LEAF
+    }
+
+    /// Interior nodes: the split axis.
+    pub fn axis(&self) -> usize {
+        (self.flags & 3) as usize
+    }
+
+    /// Interior nodes: the split coordinate.
+    pub fn split(&self) -> f32 {
+        f32::from_bits(self.data)
+    }
+
+    /// Interior nodes: the index of the child above the split (the child below is the next).
+    pub fn above_child(&self) -> u32 {
+        self.flags >> 2
+    }
+
+    /// Leaves: how many triangles, and the first of them in the index list.
+    pub fn count(&self) -> u32 {
+        self.flags >> 2
+    }
+
+    pub fn first_index(&self) -> u32 {
+        self.data
+    }
+}
+
+/// `BvhNode` in `types.h`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BvhNode {
+    pub lo0: [f32; 3],
+    pub hi0: [f32; 3],
+    pub lo1: [f32; 3],
+    pub hi1: [f32; 3],
+    pub child: [u32; 2],
+}
+const _: () = assert!(size_of::<BvhNode>() == 56);
+
 /// `Camera` in `types.h`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -134,6 +206,10 @@ pub const LAYOUT: &[StructLayout] = &[
         origin => "origin", forward => "forward", cx => "cx", cy => "cy", lens_u => "lens_u",
         lens_v => "lens_v", lens_radius => "lens_radius", focus_distance => "focus_distance",
         width => "width", height => "height",
+    }),
+    layout!(KdNode, "KdNode", { flags => "flags", data => "data" }),
+    layout!(BvhNode, "BvhNode", {
+        lo0 => "lo0", hi0 => "hi0", lo1 => "lo1", hi1 => "hi1", child => "child",
     }),
     layout!(TextureMap, "TextureMap", {
         offset => "offset", width => "width", height => "height", format => "format",

@@ -1,0 +1,1 @@
+//! PLACEHOLDER: the Morton-code BVH builder (helper at work).

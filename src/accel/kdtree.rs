@@ -1,0 +1,1 @@
+//! PLACEHOLDER: the SAH kd-tree builder (helper at work).
