@@ -1,81 +1,221 @@
-/* objects.h: the nearest hit among all objects of the scene (port of objects.cuh).
+/* objects.h: the scene and the nearest hit among its objects (port of objects.cuh).
  *
- * Reads: the Sphere and Plane arrays. Writes: nothing. Why: the path tracer asks one question,
- * "what does this ray hit first", and then needs the surface only of the winner. The object
- * BVH (bvh.h) replaces the linear loops with the meshes issue.
+ * Reads: every scene buffer, through the Scene struct of pointers below. Writes: nothing.
+ * Why: the path tracer asks one question, "what does this ray hit first", through the object
+ * BVH (bvh.h), and then needs the surface only of the winner. Transformed objects are
+ * intersected in their own space with the ray taken there by the inverse transform; spheres
+ * and planes need a unit direction, so their t is scaled back.
  */
 #ifndef CLPT_OBJECTS_H
 #define CLPT_OBJECTS_H
 
+#include "aabb.h"
+#include "transform.h"
 #include "sphere.h"
 #include "plane.h"
+#include "triangle.h"
+#include "kdtree.h"
 
 #define HIT_NONE 0u
 #define HIT_SPHERE 1u
 #define HIT_PLANE 2u
+#define HIT_MESH 3u
+
+/* Every scene buffer, in the order kernels take them (SceneBuffers::in_order on the host). */
+typedef struct Scene {
+    __global const RenderParams* params;
+    __global const Material* materials;
+    __global const Sphere* spheres;
+    __global const Plane* planes;
+    __global const TextureMap* maps;
+    __global const uchar* texels;
+    __global const Transform* transforms;
+    __global const MeshDesc* meshes;
+    __global const MeshInstance* mesh_instances;
+    __global const KdNode* kd_nodes;
+    __global const uint* kd_indices;
+    __global const uint* triangles;
+    __global const float* vertices;
+    __global const float* normals;
+    __global const ObjectRef* objects;
+    __global const BvhNode* bvh;
+} Scene;
+
+#define SCENE_KERNEL_ARGS                                                                     \
+    __global const RenderParams *params, __global const Material *materials,                 \
+        __global const Sphere *spheres, __global const Plane *planes,                        \
+        __global const TextureMap *maps, __global const uchar *texels,                       \
+        __global const Transform *transforms, __global const MeshDesc *meshes,               \
+        __global const MeshInstance *mesh_instances, __global const KdNode *kd_nodes,        \
+        __global const uint *kd_indices, __global const uint *triangles,                     \
+        __global const float *vertices, __global const float *normals,                       \
+        __global const ObjectRef *objects, __global const BvhNode *bvh
+#define SCENE_FROM_KERNEL_ARGS                                                                \
+    {params,   materials,  spheres,   planes,   maps,     texels,  transforms, meshes,        \
+     mesh_instances, kd_nodes, kd_indices, triangles, vertices, normals, objects, bvh}
 
 typedef struct Hit {
     float t;
     uint kind;  /* HIT_* */
-    uint index; /* into the array of its kind */
+    uint index; /* among spheres, planes or mesh instances */
+    uint prim;  /* meshes: the triangle */
+    float b1, b2; /* meshes: barycentric weights of the triangle's second and third vertex */
 } Hit;
 
-/* The surface at a hit: refined point, its error bound, unit outward normal, material. */
+/* The surface at a hit, in world space: refined point, its error bound, unit geometric normal
+ * (outward), shading normal (interpolated vertex normals on smooth meshes, else n), material,
+ * and the point and normal in the object's own space (for texture coordinates). */
 typedef struct Surface {
     float3 p;
     float3 p_error;
     float3 n;
+    float3 ns;
+    float3 p_local;
+    float3 n_local;
     uint material;
+    uint transform;
 } Surface;
 
-inline Hit scene_intersect(__global const RenderParams* params, __global const Sphere* spheres,
-                           __global const Plane* planes, float3 o, float3 d) {
+inline void object_intersect(const Scene* sc, ObjectRef ref, float3 o, float3 d, Hit* hit) {
+    if (ref.kind == OBJECT_MESH) {
+        __global const MeshInstance* inst = &sc->mesh_instances[ref.index];
+        float3 lo = o, ld = d;
+        if (inst->transform != TRANSFORM_NONE) {
+            __global const float* inv = sc->transforms[inst->transform].inv;
+            lo = xform_point(inv, o);
+            ld = xform_vector(inv, d);
+        }
+        if (kdtree_intersect(&sc->meshes[inst->mesh], sc->kd_nodes, sc->kd_indices,
+                             sc->triangles, sc->vertices, lo, ld, &hit->t, &hit->prim, &hit->b1,
+                             &hit->b2)) {
+            hit->kind = HIT_MESH;
+            hit->index = ref.index;
+        }
+        return;
+    }
+    const uint transform = ref.kind == OBJECT_SPHERE ? sc->spheres[ref.index].transform
+                                                     : sc->planes[ref.index].transform;
+    float3 lo = o, ld = d;
+    float scale = 1.0f; /* object-space length of the unit world direction */
+    if (transform != TRANSFORM_NONE) {
+        __global const float* inv = sc->transforms[transform].inv;
+        lo = xform_point(inv, o);
+        ld = xform_vector(inv, d);
+        scale = length(ld);
+        ld /= scale;
+    }
+    const float t_max = hit->t * scale;
+    const float t = ref.kind == OBJECT_SPHERE ? sphere_intersect(&sc->spheres[ref.index], lo, ld, t_max)
+                                              : plane_intersect(&sc->planes[ref.index], lo, ld, t_max);
+    if (t < t_max) {
+        hit->t = t / scale;
+        hit->kind = ref.kind == OBJECT_SPHERE ? HIT_SPHERE : HIT_PLANE;
+        hit->index = ref.index;
+    }
+}
+
+#include "bvh.h"
+
+inline Hit scene_intersect(const Scene* sc, float3 o, float3 d) {
     Hit hit;
     hit.t = INFINITY;
     hit.kind = HIT_NONE;
     hit.index = 0u;
-    for (uint i = 0u; i < params->num_spheres; ++i) {
-        const float t = sphere_intersect(&spheres[i], o, d, hit.t);
-        if (t < hit.t) {
-            hit.t = t;
-            hit.kind = HIT_SPHERE;
-            hit.index = i;
-        }
-    }
-    for (uint i = 0u; i < params->num_planes; ++i) {
-        const float t = plane_intersect(&planes[i], o, d, hit.t);
-        if (t < hit.t) {
-            hit.t = t;
-            hit.kind = HIT_PLANE;
-            hit.index = i;
-        }
-    }
+    hit.prim = 0u;
+    hit.b1 = 0.0f;
+    hit.b2 = 0.0f;
+    bvh_intersect(sc, o, d, &hit);
     return hit;
 }
 
-inline Surface scene_surface(__global const Sphere* spheres, __global const Plane* planes,
-                             Hit hit, float3 o, float3 d) {
+/* A mesh hit's surface in the mesh's space: p = b0 v0 + b1 v1 + b2 v2 with pbrt-v4's bound
+ * gamma(7) (|b0 v0| + |b1 v1| + |b2 v2|), the face normal, and the interpolated vertex normal
+ * turned to the face normal's side when the mesh has normals. */
+inline void mesh_surface(const Scene* sc, __global const MeshDesc* m, Hit hit, float3* p,
+                         float3* p_error, float3* n, float3* ns) {
+    const uint3 v = vload3(m->first_triangle + hit.prim, sc->triangles) + m->first_vertex;
+    const float3 v0 = vload3(v.x, sc->vertices);
+    const float3 v1 = vload3(v.y, sc->vertices);
+    const float3 v2 = vload3(v.z, sc->vertices);
+    const float b0 = 1.0f - hit.b1 - hit.b2;
+    *p = b0 * v0 + hit.b1 * v1 + hit.b2 * v2;
+    *p_error = error_gamma(7.0f) * (fabs(b0 * v0) + fabs(hit.b1 * v1) + fabs(hit.b2 * v2));
+    *n = normalize(cross(v1 - v0, v2 - v0));
+    *ns = *n;
+    if (m->has_normals) {
+        const float3 s = b0 * vload3(v.x, sc->normals) + hit.b1 * vload3(v.y, sc->normals) +
+                         hit.b2 * vload3(v.z, sc->normals);
+        const float len = length(s);
+        if (len > 0.0f) {
+            *ns = dot(s, *n) < 0.0f ? -s / len : s / len;
+        }
+    }
+}
+
+inline Surface scene_surface(const Scene* sc, Hit hit, float3 o, float3 d) {
     Surface s;
-    if (hit.kind == HIT_SPHERE) {
-        sphere_surface(&spheres[hit.index], o, d, hit.t, &s.p, &s.n, &s.p_error);
-        s.material = spheres[hit.index].material;
+    uint transform;
+    float3 lo = o, ld = d;
+    float t = hit.t;
+    if (hit.kind == HIT_MESH) {
+        __global const MeshInstance* inst = &sc->mesh_instances[hit.index];
+        transform = inst->transform;
+        s.material = inst->material;
+        mesh_surface(sc, &sc->meshes[inst->mesh], hit, &s.p, &s.p_error, &s.n, &s.ns);
     } else {
-        plane_surface(&planes[hit.index], o, d, hit.t, &s.p, &s.n, &s.p_error);
-        s.material = planes[hit.index].material;
+        transform = hit.kind == HIT_SPHERE ? sc->spheres[hit.index].transform
+                                           : sc->planes[hit.index].transform;
+        if (transform != TRANSFORM_NONE) {
+            __global const float* inv = sc->transforms[transform].inv;
+            lo = xform_point(inv, o);
+            ld = xform_vector(inv, d);
+            const float scale = length(ld);
+            ld /= scale;
+            t *= scale;
+        }
+        if (hit.kind == HIT_SPHERE) {
+            sphere_surface(&sc->spheres[hit.index], lo, ld, t, &s.p, &s.n, &s.p_error);
+            s.material = sc->spheres[hit.index].material;
+        } else {
+            plane_surface(&sc->planes[hit.index], lo, ld, t, &s.p, &s.n, &s.p_error);
+            s.material = sc->planes[hit.index].material;
+        }
+        s.ns = s.n;
+    }
+    s.p_local = s.p;
+    s.n_local = s.n;
+    s.transform = transform;
+    if (transform != TRANSFORM_NONE) {
+        __global const Transform* x = &sc->transforms[transform];
+        s.p_error = xform_point_error(x->m, s.p, s.p_error);
+        s.p = xform_point(x->m, s.p);
+        s.n = xform_normal(x->inv, s.n);
+        s.ns = xform_normal(x->inv, s.ns);
     }
     return s;
 }
 
-/* Where a hit falls on its object's texture: (u, v) and the unit directions of increasing u
- * and v (for bump maps). */
-inline float2 scene_mapping(__global const Sphere* spheres, __global const Plane* planes, Hit hit,
-                            Surface s, float3* dpdu, float3* dpdv) {
+/* Where a hit falls on its object's texture: (u, v) and the world directions of increasing u
+ * and v (for bump maps). Meshes carry no texture coordinates (the loader refuses maps on them). */
+inline float2 scene_mapping(const Scene* sc, Hit hit, Surface s, float3* dpdu, float3* dpdv) {
+    float2 uv;
     if (hit.kind == HIT_SPHERE) {
-        sphere_tangents(s.n, dpdu, dpdv);
-        return sphere_uv(s.n);
+        sphere_tangents(s.n_local, dpdu, dpdv);
+        uv = sphere_uv(s.n_local);
+    } else if (hit.kind == HIT_PLANE) {
+        plane_tangents(&sc->planes[hit.index], dpdu, dpdv);
+        uv = plane_uv(&sc->planes[hit.index], s.p_local);
+    } else {
+        *dpdu = (float3)(1.0f, 0.0f, 0.0f);
+        *dpdv = (float3)(0.0f, 1.0f, 0.0f);
+        return (float2)(0.0f, 0.0f);
     }
-    plane_tangents(&planes[hit.index], dpdu, dpdv);
-    return plane_uv(&planes[hit.index], s.p);
+    if (s.transform != TRANSFORM_NONE) {
+        __global const float* m = sc->transforms[s.transform].m;
+        *dpdu = normalize(xform_vector(m, *dpdu));
+        *dpdv = normalize(xform_vector(m, *dpdv));
+    }
+    return uv;
 }
 
 #endif

@@ -1,7 +1,7 @@
 /* pathtracer.cl: the render kernel (port of pathtracer.cuh and main.cu's renderPixel).
  *
- * Reads: RenderParams (camera, counts, seed, depth settings, texture filter), the Material,
- * Sphere and Plane arrays, the TextureMap table and the texel bytes. Writes: adds, for every pixel of rows [row_start, row_start + row_count), the
+ * Reads: the whole scene (objects.h's Scene: parameters, materials, objects, textures,
+ * meshes and the BVH). Writes: adds, for every pixel of rows [row_start, row_start + row_count), the
  * `sample_count` path samples of indices sample_start... and their squares to `sum` and `sum_sq`
  * (float4 per pixel, .w unused; row 0 is the bottom of the image). Samples are added one at a
  * time onto the running sums, so the image is bit for bit the same however the host splits
@@ -32,43 +32,38 @@ typedef struct SurfaceMaterial {
     uint type;
 } SurfaceMaterial;
 
-inline SurfaceMaterial material_at(__global const RenderParams* params,
-                                   __global const Material* m, __global const Sphere* spheres,
-                                   __global const Plane* planes,
-                                   __global const TextureMap* maps,
-                                   __global const uchar* texels, Hit hit, Surface s) {
+inline SurfaceMaterial material_at(const Scene* sc, Hit hit, Surface s) {
+    __global const Material* m = &sc->materials[s.material];
     SurfaceMaterial sm;
     sm.emission = vload3(0, m->emission);
     sm.color = vload3(0, m->color);
-    sm.shading_normal = s.n;
+    sm.shading_normal = s.ns;
     sm.type = m->type;
     if ((m->color_map & m->emission_map & m->type_map & m->bump_map) == MAP_NONE) {
         return sm; /* no maps */
     }
     float3 dpdu, dpdv;
-    const float2 uv = scene_mapping(spheres, planes, hit, s, &dpdu, &dpdv);
-    const uint filter = params->texture_filter;
+    const float2 uv = scene_mapping(sc, hit, s, &dpdu, &dpdv);
+    const uint filter = sc->params->texture_filter;
     if (m->color_map != MAP_NONE) {
-        sm.color = texture_lookup(maps, texels, m->color_map, uv, filter).xyz;
+        sm.color = texture_lookup(sc->maps, sc->texels, m->color_map, uv, filter).xyz;
     }
     if (m->emission_map != MAP_NONE) {
-        sm.emission = texture_lookup(maps, texels, m->emission_map, uv, filter).xyz;
+        sm.emission = texture_lookup(sc->maps, sc->texels, m->emission_map, uv, filter).xyz;
     }
     if (m->type_map != MAP_NONE) {
-        sm.type = (uint)texture_lookup(maps, texels, m->type_map, uv, filter).x;
+        sm.type = (uint)texture_lookup(sc->maps, sc->texels, m->type_map, uv, filter).x;
     }
     if (m->bump_map != MAP_NONE) {
-        const float2 g = texture_lookup(maps, texels, m->bump_map, uv, filter).xy;
-        sm.shading_normal = bump_normal(s.n, dpdu, dpdv, g);
+        const float2 g = texture_lookup(sc->maps, sc->texels, m->bump_map, uv, filter).xy;
+        sm.shading_normal = bump_normal(s.ns, dpdu, dpdv, g);
     }
     return sm;
 }
 
 /* One path sample: radiance arriving through pixel (px, py) for sample index `sample`. */
-inline float3 trace_path(__global const RenderParams* params, __global const Material* materials,
-                         __global const Sphere* spheres, __global const Plane* planes,
-                         __global const TextureMap* maps, __global const uchar* texels, uint px,
-                         uint py, uint sample) {
+inline float3 trace_path(const Scene* sc, uint px, uint py, uint sample) {
+    __global const RenderParams* params = sc->params;
     const uint pixel = py * params->camera.width + px;
     Rng rng = rng_for_path(params->seed_lo, params->seed_hi, pixel, sample);
     float3 o, d;
@@ -77,13 +72,12 @@ inline float3 trace_path(__global const RenderParams* params, __global const Mat
     float3 radiance = (float3)(0.0f);
     float3 throughput = (float3)(1.0f);
     for (uint depth = 0u; depth < params->max_depth; ++depth) {
-        const Hit hit = scene_intersect(params, spheres, planes, o, d);
+        const Hit hit = scene_intersect(sc, o, d);
         if (hit.kind == HIT_NONE) {
             break; /* the background is black */
         }
-        const Surface s = scene_surface(spheres, planes, hit, o, d);
-        const SurfaceMaterial sm =
-            material_at(params, &materials[s.material], spheres, planes, maps, texels, hit, s);
+        const Surface s = scene_surface(sc, hit, o, d);
+        const SurfaceMaterial sm = material_at(sc, hit, s);
         radiance += throughput * sm.emission;
 
         const float4 u = rng_next4(&rng);
@@ -108,12 +102,10 @@ inline float3 trace_path(__global const RenderParams* params, __global const Mat
     return radiance;
 }
 
-__kernel void render_pass(__global const RenderParams* params,
-                          __global const Material* materials, __global const Sphere* spheres,
-                          __global const Plane* planes, __global const TextureMap* maps,
-                          __global const uchar* texels, __global float4* sum,
+__kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum,
                           __global float4* sum_sq, uint sample_start, uint sample_count,
                           uint row_start, uint row_count) {
+    const Scene scene = SCENE_FROM_KERNEL_ARGS;
     const uint px = get_global_id(0);
     if (px >= params->camera.width || get_global_id(1) >= row_count) {
         return; /* padding of the global size to whole work-groups */
@@ -123,8 +115,7 @@ __kernel void render_pass(__global const RenderParams* params,
     float4 acc = sum[pixel];
     float4 acc_sq = sum_sq[pixel];
     for (uint i = 0u; i < sample_count; ++i) {
-        const float3 l =
-            trace_path(params, materials, spheres, planes, maps, texels, px, py, sample_start + i);
+        const float3 l = trace_path(&scene, px, py, sample_start + i);
         acc += (float4)(l, 0.0f);
         acc_sq += (float4)(l * l, 0.0f);
     }

@@ -42,15 +42,14 @@ __kernel void probe_camera(__global const RenderParams* params, __global const u
 /* Nearest hit of ray (o, d) and the ray spawned from it towards w: input 9 floats per ray
  * (o, d, w); output 16 floats: t, kind, index, p[3], n[3], p_error[3], then for the spawned
  * ray t2, kind2, index2, and the spawn origin's distance from p along n (signed). */
-__kernel void probe_hit(__global const RenderParams* params, __global const Sphere* spheres,
-                        __global const Plane* planes, __global const float* rays,
-                        __global float* out) {
+__kernel void probe_hit(SCENE_KERNEL_ARGS, __global const float* rays, __global float* out) {
+    const Scene scene = SCENE_FROM_KERNEL_ARGS;
     const uint i = get_global_id(0);
     const float3 o = vload3(3 * i, rays);
     const float3 d = vload3(3 * i + 1, rays);
     const float3 w = vload3(3 * i + 2, rays);
     __global float* r = out + 16 * i;
-    const Hit hit = scene_intersect(params, spheres, planes, o, d);
+    const Hit hit = scene_intersect(&scene, o, d);
     r[0] = hit.t;
     r[1] = (float)hit.kind;
     r[2] = (float)hit.index;
@@ -60,12 +59,12 @@ __kernel void probe_hit(__global const RenderParams* params, __global const Sphe
         }
         return;
     }
-    const Surface s = scene_surface(spheres, planes, hit, o, d);
+    const Surface s = scene_surface(&scene, hit, o, d);
     vstore3(s.p, 1, r);
     vstore3(s.n, 2, r);
     vstore3(s.p_error, 3, r);
     const float3 o2 = offset_ray_origin(s.p, s.p_error, s.n, w);
-    const Hit next = scene_intersect(params, spheres, planes, o2, w);
+    const Hit next = scene_intersect(&scene, o2, w);
     r[12] = next.t;
     r[13] = (float)next.kind;
     r[14] = (float)next.index;
@@ -87,9 +86,9 @@ __kernel void probe_material(__global const uint* type, __global const float* wo
 
 /* Texture coordinates and directions of a hit: input as probe_hit (9 floats, w unused); output
  * 8 floats: u, v, dpdu[3], dpdv[3] (zeros on a miss). */
-__kernel void probe_mapping(__global const RenderParams* params, __global const Sphere* spheres,
-                            __global const Plane* planes, __global const float* rays,
+__kernel void probe_mapping(SCENE_KERNEL_ARGS, __global const float* rays,
                             __global float* out) {
+    const Scene scene = SCENE_FROM_KERNEL_ARGS;
     const uint i = get_global_id(0);
     const float3 o = vload3(3 * i, rays);
     const float3 d = vload3(3 * i + 1, rays);
@@ -97,13 +96,13 @@ __kernel void probe_mapping(__global const RenderParams* params, __global const 
     for (int k = 0; k < 8; ++k) {
         r[k] = 0.0f;
     }
-    const Hit hit = scene_intersect(params, spheres, planes, o, d);
+    const Hit hit = scene_intersect(&scene, o, d);
     if (hit.kind == HIT_NONE) {
         return;
     }
-    const Surface s = scene_surface(spheres, planes, hit, o, d);
+    const Surface s = scene_surface(&scene, hit, o, d);
     float3 dpdu, dpdv;
-    const float2 uv = scene_mapping(spheres, planes, hit, s, &dpdu, &dpdv);
+    const float2 uv = scene_mapping(&scene, hit, s, &dpdu, &dpdv);
     r[0] = uv.x;
     r[1] = uv.y;
     vstore3(dpdu, 0, r + 2);

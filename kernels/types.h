@@ -93,13 +93,23 @@ typedef struct Material {
 } Material;
 CLPT_ASSERT_SIZE(Material, 44);
 
-/* A sphere (sphere.cuh). */
+/* An affine object-to-world transform (transform.cuh) and its inverse, each the top three
+ * rows of a 4x4 matrix, row by row (the bottom row is 0 0 0 1). */
+#define TRANSFORM_NONE 0xFFFFFFFFu
+typedef struct Transform {
+    float m[12];
+    float inv[12];
+} Transform;
+CLPT_ASSERT_SIZE(Transform, 96);
+
+/* A sphere (sphere.cuh), in its object space when it has a transform. */
 typedef struct Sphere {
     float center[3];
     float radius;
     uint material;
+    uint transform;        /* index into the Transform array, or TRANSFORM_NONE */
 } Sphere;
-CLPT_ASSERT_SIZE(Sphere, 20);
+CLPT_ASSERT_SIZE(Sphere, 24);
 
 /* A one-sided plane n.p = offset (plane.cuh), visible from the side n points to, limited to
  * the points p with |p - n*offset| <= range in every coordinate (the original's bounding box).
@@ -112,20 +122,54 @@ typedef struct Plane {
     float dir_u[3];
     float dir_v[3];
     uint material;
+    uint transform;        /* index into the Transform array, or TRANSFORM_NONE */
 } Plane;
-CLPT_ASSERT_SIZE(Plane, 60);
+CLPT_ASSERT_SIZE(Plane, 64);
+
+/* A triangle mesh's data, shared by every instance of it (mesh.cuh): its kd-tree nodes and
+ * triangle index list, its index triples (vertex numbers counted from first_vertex) and its
+ * vertices (and per-vertex normals when has_normals), in the scene's common arrays. */
+typedef struct MeshDesc {
+    uint first_node;
+    uint first_index;
+    uint first_triangle;
+    uint first_vertex;
+    uint has_normals;
+    float lo[3];           /* object-space bounds, rounded outwards */
+    float hi[3];
+} MeshDesc;
+CLPT_ASSERT_SIZE(MeshDesc, 44);
+
+/* A mesh placed in the scene. */
+typedef struct MeshInstance {
+    uint mesh;             /* index into the MeshDesc array */
+    uint transform;        /* index into the Transform array, or TRANSFORM_NONE */
+    uint material;
+} MeshInstance;
+CLPT_ASSERT_SIZE(MeshInstance, 12);
+
+/* What a BVH leaf holds: an object of some kind, by its index among its kind. */
+#define OBJECT_SPHERE 0u
+#define OBJECT_PLANE 1u
+#define OBJECT_MESH 2u
+typedef struct ObjectRef {
+    uint kind;             /* OBJECT_* */
+    uint index;
+} ObjectRef;
+CLPT_ASSERT_SIZE(ObjectRef, 8);
 
 /* Everything a render launch needs besides the object arrays, uploaded once per render. */
 typedef struct RenderParams {
     Camera camera;
-    uint num_spheres;
-    uint num_planes;
+    uint num_objects;      /* ObjectRef entries; [first_unbounded, num_objects) are outside the BVH */
+    uint first_unbounded;
+    uint num_bvh_nodes;
     uint seed_lo;          /* the 64-bit --seed, the Philox key */
     uint seed_hi;
     uint max_depth;        /* safety cap on path length (bounces) */
     uint rr_depth;         /* Russian roulette starts at this depth */
     uint texture_filter;   /* FILTER_* */
 } RenderParams;
-CLPT_ASSERT_SIZE(RenderParams, 116);
+CLPT_ASSERT_SIZE(RenderParams, 120);
 
 #endif

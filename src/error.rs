@@ -71,14 +71,18 @@ pub enum Error {
     Texture { path: PathBuf, message: String },
 
     #[error(
-        "{location}: texture file `{written}` not found; tried:\n{}",
+        "{location}: {what} file `{written}` not found; tried:\n{}",
         tried.iter().map(|p| format!("  {}", p.display())).collect::<Vec<_>>().join("\n")
     )]
-    TextureNotFound {
+    FileNotFound {
+        what: &'static str,
         location: Location,
         written: String,
         tried: Vec<PathBuf>,
     },
+
+    #[error("mesh {}: {message}", path.display())]
+    Mesh { path: PathBuf, message: String },
 
     #[error("kernel source: {0}")]
     KernelSource(String),

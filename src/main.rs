@@ -191,15 +191,18 @@ fn render(args: &RenderArgs) -> Result<()> {
             renderer.program.options
         );
         eprintln!(
-            "scene: {} ({}x{}), {} materials, {} spheres, {} planes",
+            "scene: {} ({}x{}), {} materials, {} spheres, {} planes, {} mesh instances, {} transforms",
             scene.source,
             renderer.width(),
             renderer.height(),
             renderer.packed.materials.len(),
             renderer.packed.spheres.len(),
-            renderer.packed.planes.len()
+            renderer.packed.planes.len(),
+            renderer.packed.mesh_instances.len(),
+            renderer.packed.transforms.len()
         );
         eprintln!("{}", renderer.packed.textures.report());
+        eprintln!("{}", renderer.packed.mesh_report());
     }
     let bar = if args.quiet {
         ProgressBar::hidden()

@@ -43,7 +43,7 @@ fn sphere_cases() -> Vec<SphereCase> {
     let s = |c: [f32; 3], r: f32| Sphere {
         center: c,
         radius: r,
-        material: 0,
+        ..Default::default()
     };
     vec![
         // smallpt's left wall, seen from inside the room.

@@ -28,7 +28,7 @@ fn normals(scene: &Scene) -> Vec<DVec3> {
         .iter()
         .filter_map(|o| match o.shape {
             Shape::Plane { normal, .. } => Some(normal),
-            Shape::Sphere { .. } => None,
+            _ => None,
         })
         .collect()
 }
@@ -169,7 +169,7 @@ fn case0_objects_and_textures() {
         .iter()
         .filter_map(|o| match o.shape {
             Shape::Sphere { center, radius } => Some((center, radius)),
-            Shape::Plane { .. } => None,
+            _ => None,
         })
         .collect();
     assert_eq!(
@@ -226,26 +226,33 @@ fn default_scene_materials() {
 }
 
 #[test]
-fn originals_with_meshes_or_curves_are_refused_where_they_start() {
+fn originals_with_meshes_parse_and_curves_are_refused_where_they_start() {
     let Some(seed) =
-        common::seed_dir("originals_with_meshes_or_curves_are_refused_where_they_start")
+        common::seed_dir("originals_with_meshes_parse_and_curves_are_refused_where_they_start")
     else {
         return;
     };
+    for (name, meshes) in [("case1_dof_mesh.txt", 3), ("debug_scenepareser.txt", 1)] {
+        let scene = parse_testcase(&seed, name);
+        let found = scene
+            .objects
+            .iter()
+            .filter(|o| matches!(o.shape, Shape::Mesh { .. }) && o.transform.is_some())
+            .count();
+        assert_eq!(found, meshes, "{name}: transformed meshes");
+    }
     for (name, line, column) in [
-        ("case1_dof_mesh.txt", 79, 5),
-        ("case3_wineglass.txt", 142, 5),
-        ("default-0.txt", 41, 5),
-        ("default-bak.txt", 49, 5),
-        ("scene08_core.txt", 20, 5),
-        ("debug_scenepareser.txt", 30, 5),
+        ("case3_wineglass.txt", 145, 9),
+        ("default-0.txt", 43, 9),
+        ("default-bak.txt", 53, 9),
+        ("scene08_core.txt", 21, 9),
     ] {
         let err = parse_scene(&read_testcase(&seed, name), name).unwrap_err();
         assert_eq!(
             err.to_string(),
             format!(
-                "{name}:{line}:{column}: `Transform` is not supported yet \
-                 (it arrives with the meshes issue)"
+                "{name}:{line}:{column}: `RevSurface` is not supported yet \
+                 (it arrives with the curves issue)"
             )
         );
     }
@@ -596,7 +603,8 @@ fn malformed_scenes_fail_where_the_mistake_is() {
             with_group("numObjects 1 Cube { }"),
             3,
             22,
-            "expected `MaterialIndex`, `Sphere`, `Plane` or `}` in `Group`, found `Cube`",
+            "expected `MaterialIndex`, `Sphere`, `Plane`, `Mesh`, `TriangleMesh`, `Transform` or `}` \
+             in `Group`, found `Cube`",
         ),
         (
             "object without its brace",
@@ -613,11 +621,11 @@ fn malformed_scenes_fail_where_the_mistake_is() {
             "expected `PerspectiveCamera` only once, found it again (first at 1:1)",
         ),
         (
-            "Transform",
+            "Transform without an object",
             with_group("numObjects 1 Transform { }"),
             3,
             22,
-            "`Transform` is not supported yet (it arrives with the meshes issue)",
+            "`Transform` without an object",
         ),
         (
             "RevSurface",
@@ -627,11 +635,20 @@ fn malformed_scenes_fail_where_the_mistake_is() {
             "`RevSurface` is not supported yet (it arrives with the curves issue)",
         ),
         (
-            "TriangleMesh",
+            "TriangleMesh without its file",
             with_group("numObjects 1 TriangleMesh { }"),
             3,
-            22,
-            "`TriangleMesh` is not supported yet (it arrives with the meshes issue)",
+            37,
+            "expected `obj_file` in `TriangleMesh` opened at 3:22, found `}`",
+        ),
+        (
+            "Matrix4f with 15 numbers",
+            with_group(
+                "numObjects 1 Transform { Matrix4f { 1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 } Sphere { center 0 0 0 radius 1 } }",
+            ),
+            3,
+            75,
+            "expected a number for `Matrix4f`, found `}`",
         ),
     ];
     assert!(cases.len() >= 20);

@@ -218,7 +218,7 @@ fn texture_paths_resolve_in_order_and_list_what_was_tried() {
         line: 3,
         column: 9,
     };
-    let found = |name: &str| texture::resolve(Path::new(name), Some(&scenes), &at);
+    let found = |name: &str| clpt::scene::resolve("texture", Path::new(name), Some(&scenes), &at);
     // The parent's file when the scene folder has none; the scene folder's first.
     assert_eq!(found("texture/a.ppm").unwrap(), dir.join("texture/a.ppm"));
     assert_eq!(
@@ -406,14 +406,14 @@ fn plane_and_sphere_mapping_match_f64() {
         centerp: centerp.as_vec3().to_array(),
         dir_u: dir_u.as_vec3().to_array(),
         dir_v: dir_v.as_vec3().to_array(),
-        material: 0,
+        ..Default::default()
     };
     let center = DVec3::new(1.0, 2.0, -40.0);
     let radius = 7.0;
     let sphere = layout::Sphere {
         center: center.as_vec3().to_array(),
         radius: 7.0,
-        material: 0,
+        ..Default::default()
     };
     let f = |v: DVec3| v.as_vec3().to_array();
     let ray = |o: DVec3, d: DVec3| {

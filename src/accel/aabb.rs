@@ -57,8 +57,7 @@ impl Aabb {
     }
 
     pub fn contains(&self, other: &Aabb) -> bool {
-        other.is_empty()
-            || (self.lo.cmple(other.lo).all() && self.hi.cmpge(other.hi).all())
+        other.is_empty() || (self.lo.cmple(other.lo).all() && self.hi.cmpge(other.hi).all())
     }
 
     /// The f32 box (lo, hi) containing this one: each bound rounded away from the inside.
@@ -83,7 +82,10 @@ impl Aabb {
         let (mut t0, mut t1) = (t_min, t_max);
         for axis in 0..3 {
             let inv = 1.0 / d[axis];
-            let (mut near, mut far) = ((self.lo[axis] - o[axis]) * inv, (self.hi[axis] - o[axis]) * inv);
+            let (mut near, mut far) = (
+                (self.lo[axis] - o[axis]) * inv,
+                (self.hi[axis] - o[axis]) * inv,
+            );
             if near > far {
                 std::mem::swap(&mut near, &mut far);
             }

@@ -1,1 +1,940 @@
-//! PLACEHOLDER: the SAH kd-tree builder (helper at work).
+//! The kd-tree over one mesh's triangles (← the original's `kd-tree.cuh`), built on the host and
+//! flattened into the 8-byte [`KdNode`]s of `kernels/types.h`.
+//!
+//! The original split round-robin on x, y, z at the median triangle, stopped at depth 15 or at
+//! 15 triangles per leaf, and, because a triangle overlapping several leaves was tested once per
+//! leaf, kept a per-ray "already tested" bit array that it cleared on every mesh intersection.
+//! Here instead:
+//!
+//! - The split planes minimise the surface area heuristic (SAH) with the O(n log n) sweep of
+//!   I. Wald and V. Havran, "On building fast kd-Trees for Ray Tracing, and on doing that in
+//!   O(N log N)", IEEE Symposium on Interactive Ray Tracing 2006: the triangles' bound events
+//!   are sorted once per axis; each node sweeps its three sorted lists to find the cheapest
+//!   plane and splits them into its children's lists in linear time, re-clipping only the
+//!   triangles that straddle the plane. A split that leaves one side empty is discounted by
+//!   the empty-space bonus, so empty space gets cut off.
+//! - Triangles are clipped to the node box before their bounds become events ("perfect
+//!   splits"), so a long thin triangle does not follow its bounding box into cells it misses.
+//! - Leaves end where SAH says a split no longer pays (with a depth limit that grows with
+//!   log n), not at a fixed depth and count, so dense parts get deep trees and empty space
+//!   gets big empty leaves.
+//! - Traversal ([`KdTree::intersect`], the reference for the device code) visits leaves front
+//!   to back with a small stack and stops after the first leaf whose interval holds the nearest
+//!   hit found so far: no per-ray memory for tested triangles. A hit beyond the current leaf is
+//!   not taken as final, since a nearer one can still lie in a later leaf; it is kept as the best
+//!   so far, which is the same as clipping the leaf's hits to its interval but also accepts a
+//!   hit computed an ulp outside the leaf on a plane or box face (see [`KdTree::intersect`]).
+//!
+//! All geometry is in f64 on exact copies of the f32 inputs; every split coordinate is an f32
+//! value (a bound of some triangle's clipped box) and triangles are classified against exactly
+//! that value, so the flattened tree means what the builder decided.
+
+use super::aabb::Aabb;
+use crate::device::layout::KdNode;
+use glam::DVec3;
+
+/// Triangles numbered at or above this are not indexed (a leaf stores its count in 30 bits);
+/// the mesh loader refuses such meshes.
+pub const MAX_TRIANGLES: usize = (1 << 30) - 1;
+
+/// The deepest tree [`KdTree::build`] makes, whatever [`KdParams::max_depth`] asks: a traversal
+/// stack of this many entries never overflows.
+pub const MAX_DEPTH: u32 = 64;
+
+/// The original's limits, kept by [`KdTree::build_median`].
+const MEDIAN_MAX_DEPTH: u32 = 15;
+const MEDIAN_LEAF_TRIANGLES: usize = 15;
+
+/// Nodes with at least this many triangles may hand a child to another thread.
+const PARALLEL_MIN_TRIANGLES: usize = 4096;
+
+/// The SAH build's knobs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KdParams {
+    /// Cost of one traversal step (a node load, a plane distance, a stack push).
+    pub traversal_cost: f64,
+    /// Cost of one ray/triangle test.
+    pub intersection_cost: f64,
+    /// Fraction taken off a split's cost when one side holds no triangle (Wald–Havran's
+    /// λ = 1 - empty_bonus), so empty space is cut off even where SAH is otherwise indifferent.
+    pub empty_bonus: f64,
+    /// Deepest leaf (the root is depth 0); 0 picks 8 + 1.3 log2(n), as pbrt does. Never above
+    /// [`MAX_DEPTH`]. A node at this depth is a leaf whatever it holds.
+    pub max_depth: u32,
+    /// A node holding at most this many triangles becomes a leaf when SAH finds no split
+    /// cheaper than testing them all; a node holding more is split at its cheapest plane even
+    /// when SAH would rather stop, as long as that plane takes a triangle or some empty space
+    /// off one side (so splitting makes progress). `u32::MAX` leaves every decision to SAH.
+    pub max_leaf_triangles: u32,
+}
+
+impl Default for KdParams {
+    /// Traversal 1, intersection 1.5: Wald and Havran used 15 and 20; the device's triangle
+    /// test reads an index, three vertex indices and nine floats and does ~30 flops, against
+    /// one 8-byte node and one multiply-add per step, but a step also costs a branch and stack
+    /// traffic, so about the same ratio holds. Empty bonus 0.2 as in the paper. Leaves above
+    /// 16 triangles are split further when any split makes progress, which only bites in dense
+    /// clusters where SAH's uniform-ray model undervalues splitting.
+    fn default() -> KdParams {
+        KdParams {
+            traversal_cost: 1.0,
+            intersection_cost: 1.5,
+            empty_bonus: 0.2,
+            max_depth: 0,
+            max_leaf_triangles: 16,
+        }
+    }
+}
+
+/// A mesh's kd-tree: nodes in depth-first order (node 0 the root; an interior node's child
+/// below its split is the next node), the leaves' triangle lists, and the box the tree covers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct KdTree {
+    pub nodes: Vec<KdNode>,
+    /// Triangle numbers; leaf `l` holds `indices[l.first_index()..][..l.count()]`.
+    pub indices: Vec<u32>,
+    /// Tight bounds of the triangles the tree holds (empty when it holds none). Every bound is
+    /// an f32 vertex coordinate, so rounding it to f32 outward changes nothing.
+    pub bounds: Aabb,
+}
+
+/// What a tree looks like, for tests and `-v` output.
+#[derive(Clone, Debug, PartialEq)]
+pub struct KdStats {
+    pub nodes: usize,
+    pub leaves: usize,
+    pub empty_leaves: usize,
+    /// Depth of the deepest leaf (the root is depth 0); the traversal stack needs this many
+    /// entries.
+    pub max_depth: u32,
+    /// Mean triangle count of the non-empty leaves.
+    pub mean_leaf_triangles: f64,
+    pub index_entries: usize,
+    /// Expected cost of a ray through the tree (the SAH: each node's cost weighted by its
+    /// surface area over the root's), with the default cost constants and no empty bonus, so
+    /// trees built any way compare on one scale.
+    pub sah_cost: f64,
+    /// Device size: 8 bytes per node, 4 per index entry.
+    pub bytes: usize,
+    /// Triangles the tree leaves out: zero area, non-finite or out-of-range vertices, or
+    /// numbered at or above [`MAX_TRIANGLES`].
+    pub skipped_triangles: usize,
+}
+
+/// The vertices of triangle `index` in f64, or `None` when it names a vertex that does not
+/// exist.
+pub fn triangle_vertices(
+    positions: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    index: u32,
+) -> Option<[DVec3; 3]> {
+    let tri = triangles.get(index as usize)?;
+    let vertex = |i: u32| {
+        positions
+            .get(i as usize)
+            .map(|p| DVec3::from(p.map(f64::from)))
+    };
+    Some([vertex(tri[0])?, vertex(tri[1])?, vertex(tri[2])?])
+}
+
+/// Möller–Trumbore in f64: the parameter t of the point where o + t d crosses triangle `v`, if
+/// t_min < t < t_max. Both faces count; a ray in the triangle's plane (and a zero-area
+/// triangle) has det = 0 and misses.
+pub fn intersect_triangle(
+    o: DVec3,
+    d: DVec3,
+    v: &[DVec3; 3],
+    t_min: f64,
+    t_max: f64,
+) -> Option<f64> {
+    let e1 = v[1] - v[0];
+    let e2 = v[2] - v[0];
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - v[0];
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let w = d.dot(q) * inv;
+    if w < 0.0 || u + w > 1.0 {
+        return None;
+    }
+    let t = e2.dot(q) * inv;
+    (t > t_min && t < t_max).then_some(t)
+}
+
+/// A triangle the tree holds: its number in the mesh and its vertices.
+#[derive(Clone, Copy, Debug)]
+struct Tri {
+    number: u32,
+    v: [[f32; 3]; 3],
+}
+
+impl Tri {
+    fn vertices(&self) -> [DVec3; 3] {
+        self.v.map(|p| DVec3::from(p.map(f64::from)))
+    }
+
+    fn bounds(&self) -> Aabb {
+        Aabb::from_points(self.vertices())
+    }
+}
+
+/// Triangle `index` if the tree can hold it: numbered below [`MAX_TRIANGLES`], with vertices
+/// that exist, are finite and span a non-zero area (a zero-area triangle cannot be hit:
+/// Möller–Trumbore's det is 0).
+fn valid_triangle(positions: &[[f32; 3]], triangles: &[[u32; 3]], index: usize) -> Option<Tri> {
+    if index >= MAX_TRIANGLES {
+        return None;
+    }
+    let vertex = |i: u32| positions.get(i as usize).copied();
+    let [a, b, c] = *triangles.get(index)?;
+    let tri = Tri {
+        number: index as u32,
+        v: [vertex(a)?, vertex(b)?, vertex(c)?],
+    };
+    let v = tri.vertices();
+    let finite = v.iter().all(|p| p.is_finite());
+    (finite && (v[1] - v[0]).cross(v[2] - v[0]) != DVec3::ZERO).then_some(tri)
+}
+
+/// Every valid triangle, in order.
+fn valid_triangles(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<Tri> {
+    (0..triangles.len())
+        .filter_map(|i| valid_triangle(positions, triangles, i))
+        .collect()
+}
+
+/// The box of the part of triangle `v` (with bounds `tri`) inside `node`, rounded outward to
+/// f32 values and kept inside both boxes, or `None` when the triangle misses the box.
+///
+/// The polygon is clipped against `node` grown by a margin far above f64 rounding (2^-40 of the
+/// largest coordinate) and far below f32 spacing, so its computed box contains the exact one
+/// and a triangle that reaches into the box is never dropped; clamping to the triangle's own
+/// bounds and the node's (both exact f32 values) then undoes the margin wherever the true bound
+/// is a vertex or a box face, so the f32 event positions are exact in the common cases and one
+/// f32 step conservative at worst.
+fn clip_bounds(v: &[DVec3; 3], tri: &Aabb, node: &Aabb) -> Option<Aabb> {
+    if node.contains(tri) {
+        return Some(*tri);
+    }
+    if (0..3).any(|a| tri.hi[a] < node.lo[a] || tri.lo[a] > node.hi[a]) {
+        return None;
+    }
+    let scale = [node.lo, node.hi, tri.lo, tri.hi]
+        .iter()
+        .fold(0.0f64, |m, p| m.max(p.abs().max_element()));
+    let margin = scale * (f64::EPSILON * 4096.0);
+    let mut poly = Polygon::triangle(v);
+    for axis in 0..3 {
+        poly = poly.clip(axis, node.lo[axis] - margin, false);
+        poly = poly.clip(axis, node.hi[axis] + margin, true);
+    }
+    let clipped = Aabb::from_points(poly.points[..poly.len].iter().copied());
+    if clipped.is_empty() {
+        return None;
+    }
+    let (lo, hi) = clipped.to_f32_outward();
+    let lo_limit = tri.lo.max(node.lo);
+    let hi_limit = tri.hi.min(node.hi);
+    let fit = |p: [f32; 3]| DVec3::from(p.map(f64::from)).max(lo_limit).min(hi_limit);
+    Some(Aabb {
+        lo: fit(lo),
+        hi: fit(hi),
+    })
+}
+
+/// A convex polygon of at most 9 points: a triangle clipped by the 6 planes of a box (each
+/// plane adds at most one point).
+struct Polygon {
+    points: [DVec3; 9],
+    len: usize,
+}
+
+impl Polygon {
+    fn triangle(v: &[DVec3; 3]) -> Polygon {
+        let mut points = [DVec3::ZERO; 9];
+        points[..3].copy_from_slice(v);
+        Polygon { points, len: 3 }
+    }
+
+    /// Sutherland–Hodgman against the plane `axis = c`, keeping the side below it (`below`)
+    /// or above it.
+    fn clip(&self, axis: usize, c: f64, below: bool) -> Polygon {
+        let inside = |p: DVec3| if below { p[axis] <= c } else { p[axis] >= c };
+        let mut out = Polygon {
+            points: [DVec3::ZERO; 9],
+            len: 0,
+        };
+        let pts = &self.points[..self.len];
+        for (i, &a) in pts.iter().enumerate() {
+            let b = pts[(i + 1) % pts.len()];
+            if inside(a) {
+                out.push(a);
+            }
+            if inside(a) != inside(b) {
+                let mut p = a + (b - a) * ((c - a[axis]) / (b[axis] - a[axis]));
+                p[axis] = c;
+                out.push(p);
+            }
+        }
+        out
+    }
+
+    fn push(&mut self, p: DVec3) {
+        // A convex polygon cut by a plane gains at most one point, so 9 is never exceeded;
+        // the check only keeps a broken invariant from indexing out of bounds.
+        if let Some(slot) = self.points.get_mut(self.len) {
+            *slot = p;
+            self.len += 1;
+        }
+    }
+}
+
+/// Event kinds, in the order events at one position are swept: ends before planar before
+/// starts (Wald–Havran section 4.2).
+const END: u32 = 0;
+const PLANAR: u32 = 1;
+const START: u32 = 2;
+const TRI_MASK: u32 = (1 << 30) - 1;
+
+/// A triangle's clipped box beginning, ending or (flat on this axis) lying at `pos`; the kind
+/// sits in the top 2 bits of `packed`, the triangle's build number in the low 30.
+#[derive(Clone, Copy, Debug)]
+struct Event {
+    pos: f32,
+    packed: u32,
+}
+
+impl Event {
+    fn new(pos: f64, kind: u32, tri: u32) -> Event {
+        Event {
+            // Positions are f32 values already; + 0.0 turns -0 into +0 so both sort as one.
+            pos: pos as f32 + 0.0,
+            packed: kind << 30 | tri,
+        }
+    }
+
+    fn kind(self) -> u32 {
+        self.packed >> 30
+    }
+
+    fn tri(self) -> usize {
+        (self.packed & TRI_MASK) as usize
+    }
+
+    /// Sorts by position, then kind, then triangle (so the build is deterministic).
+    fn key(self) -> u64 {
+        let bits = self.pos.to_bits();
+        let ordered = if bits >> 31 == 1 {
+            !bits
+        } else {
+            bits | 1 << 31
+        };
+        u64::from(ordered) << 32 | u64::from(self.packed)
+    }
+}
+
+/// Appends the events of triangle `tri` with clipped box `b` to the three axis lists.
+fn push_events(lists: &mut [Vec<Event>; 3], tri: u32, b: &Aabb) {
+    for (axis, list) in lists.iter_mut().enumerate() {
+        if b.lo[axis] == b.hi[axis] {
+            list.push(Event::new(b.lo[axis], PLANAR, tri));
+        } else {
+            list.push(Event::new(b.lo[axis], START, tri));
+            list.push(Event::new(b.hi[axis], END, tri));
+        }
+    }
+}
+
+/// Merges two lists sorted by [`Event::key`].
+fn merge(a: Vec<Event>, mut b: Vec<Event>) -> Vec<Event> {
+    if b.is_empty() {
+        return a;
+    }
+    b.sort_unstable_by_key(|e| e.key());
+    let mut out = Vec::with_capacity(a.len() + b.len());
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        if a[i].key() <= b[j].key() {
+            out.push(a[i]);
+            i += 1;
+        } else {
+            out.push(b[j]);
+            j += 1;
+        }
+    }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
+    out
+}
+
+/// Where a triangle goes when its node splits.
+const BOTH: u8 = 0;
+const LEFT: u8 = 1;
+const RIGHT: u8 = 2;
+
+/// The cheapest plane of a node.
+#[derive(Clone, Copy, Debug)]
+struct Split {
+    axis: usize,
+    pos: f32,
+    /// Triangles lying in the plane go below it (else above).
+    planar_left: bool,
+    cost: f64,
+    left: usize,
+    right: usize,
+}
+
+/// The parameters with the automatic depth resolved.
+struct Costs {
+    traversal: f64,
+    intersection: f64,
+    empty_factor: f64,
+    max_depth: u32,
+    max_leaf_triangles: usize,
+}
+
+impl Costs {
+    /// SAH cost of a split, relative to the node's area.
+    fn split(&self, p_left: f64, p_right: f64, left: usize, right: usize) -> f64 {
+        let c =
+            self.traversal + self.intersection * (p_left * left as f64 + p_right * right as f64);
+        if left == 0 || right == 0 {
+            c * self.empty_factor
+        } else {
+            c
+        }
+    }
+}
+
+/// A tree under construction (or a subtree built on another thread), indices relative to
+/// its own start.
+struct Output {
+    nodes: Vec<KdNode>,
+    indices: Vec<u32>,
+}
+
+impl Output {
+    /// Appends a subtree built into its own `Output`, moving its node and index references.
+    fn append(&mut self, sub: Output) {
+        let node_base = self.nodes.len() as u32;
+        let index_base = self.indices.len() as u32;
+        self.nodes.extend(sub.nodes.iter().map(|n| {
+            if n.is_leaf() {
+                KdNode::leaf(n.first_index() + index_base, n.count())
+            } else {
+                KdNode::interior(n.axis(), n.split(), n.above_child() + node_base)
+            }
+        }));
+        self.indices.extend_from_slice(&sub.indices);
+    }
+
+    fn leaf(&mut self, mut triangles: Vec<u32>) {
+        triangles.sort_unstable();
+        self.nodes.push(KdNode::leaf(
+            self.indices.len() as u32,
+            triangles.len() as u32,
+        ));
+        self.indices.extend_from_slice(&triangles);
+    }
+}
+
+/// The SAH builder's state: the valid triangles (build numbers index `tris`), the per-triangle
+/// side scratch of the split being made, and the output.
+struct SahBuilder<'a> {
+    tris: &'a [Tri],
+    costs: &'a Costs,
+    side: Vec<u8>,
+    out: Output,
+    /// Nodes shallower than this may build their above child on another thread.
+    parallel_depth: u32,
+}
+
+impl<'a> SahBuilder<'a> {
+    fn new(tris: &'a [Tri], costs: &'a Costs, parallel_depth: u32) -> Self {
+        SahBuilder {
+            tris,
+            costs,
+            side: vec![BOTH; tris.len()],
+            out: Output {
+                nodes: Vec::new(),
+                indices: Vec::new(),
+            },
+            parallel_depth,
+        }
+    }
+
+    fn node(&mut self, events: [Vec<Event>; 3], bx: Aabb, count: usize, depth: u32) {
+        let split = if depth >= self.costs.max_depth {
+            None
+        } else {
+            self.find_split(&events, &bx, count)
+        };
+        let Some(split) = split else {
+            let tris = events[0]
+                .iter()
+                .filter(|e| e.kind() != END)
+                .map(|e| self.tris[e.tri()].number)
+                .collect();
+            self.out.leaf(tris);
+            return;
+        };
+        let (left, right) = self.split_events(events, &bx, &split);
+        let (mut left_box, mut right_box) = (bx, bx);
+        left_box.hi[split.axis] = f64::from(split.pos);
+        right_box.lo[split.axis] = f64::from(split.pos);
+        let at = self.out.nodes.len();
+        self.out.nodes.push(KdNode::default());
+        if depth < self.parallel_depth && count >= PARALLEL_MIN_TRIANGLES {
+            let mut other = SahBuilder::new(self.tris, self.costs, self.parallel_depth);
+            let above = std::thread::scope(|s| {
+                let handle = s.spawn(move || {
+                    other.node(right.0, right_box, right.1, depth + 1);
+                    other.out
+                });
+                self.node(left.0, left_box, left.1, depth + 1);
+                handle.join()
+            });
+            match above {
+                Ok(above) => {
+                    self.out.nodes[at] =
+                        KdNode::interior(split.axis, split.pos, self.out.nodes.len() as u32);
+                    self.out.append(above);
+                }
+                Err(panic) => std::panic::resume_unwind(panic),
+            }
+        } else {
+            self.node(left.0, left_box, left.1, depth + 1);
+            self.out.nodes[at] =
+                KdNode::interior(split.axis, split.pos, self.out.nodes.len() as u32);
+            self.node(right.0, right_box, right.1, depth + 1);
+        }
+    }
+
+    /// The cheapest plane strictly inside `bx` (Wald–Havran's sweep over each axis's sorted
+    /// events), if the node should be split there.
+    fn find_split(&self, events: &[Vec<Event>; 3], bx: &Aabb, count: usize) -> Option<Split> {
+        let area = bx.surface_area();
+        if !(area > 0.0) {
+            return None;
+        }
+        let extent = bx.extent();
+        let mut best: Option<Split> = None;
+        for (axis, list) in events.iter().enumerate() {
+            let (lo, hi) = (bx.lo[axis], bx.hi[axis]);
+            let (e1, e2) = (extent[(axis + 1) % 3], extent[(axis + 2) % 3]);
+            let (mut left, mut right) = (0usize, count);
+            let mut i = 0;
+            while i < list.len() {
+                let pos = list[i].pos;
+                let mut n = [0usize; 3];
+                while i < list.len() && list[i].pos == pos {
+                    n[list[i].kind() as usize] += 1;
+                    i += 1;
+                }
+                let [ends, planar, starts] = n;
+                right -= planar + ends;
+                let p = f64::from(pos);
+                if p > lo && p < hi {
+                    let p_left = 2.0 * (e1 * e2 + (p - lo) * (e1 + e2)) / area;
+                    let p_right = 2.0 * (e1 * e2 + (hi - p) * (e1 + e2)) / area;
+                    let below = self.costs.split(p_left, p_right, left + planar, right);
+                    let above = self.costs.split(p_left, p_right, left, right + planar);
+                    let candidate = if below < above {
+                        (below, true, left + planar, right)
+                    } else {
+                        (above, false, left, right + planar)
+                    };
+                    if best.is_none_or(|b| candidate.0 < b.cost) {
+                        best = Some(Split {
+                            axis,
+                            pos,
+                            planar_left: candidate.1,
+                            cost: candidate.0,
+                            left: candidate.2,
+                            right: candidate.3,
+                        });
+                    }
+                }
+                left += starts + planar;
+            }
+        }
+        let best = best?;
+        let leaf_cost = self.costs.intersection * count as f64;
+        let progress = best.left < count || best.right < count;
+        let forced = count > self.costs.max_leaf_triangles && progress;
+        (best.cost < leaf_cost || forced).then_some(best)
+    }
+
+    /// Splits the node's event lists into its children's, in time linear in their length
+    /// plus sorting the events of the triangles that straddle the plane, which are clipped to
+    /// each child's box afresh. Returns each child's lists and triangle count.
+    #[allow(clippy::type_complexity)]
+    fn split_events(
+        &mut self,
+        events: [Vec<Event>; 3],
+        bx: &Aabb,
+        split: &Split,
+    ) -> (([Vec<Event>; 3], usize), ([Vec<Event>; 3], usize)) {
+        let axis_list = &events[split.axis];
+        for e in axis_list.iter().filter(|e| e.kind() != END) {
+            self.side[e.tri()] = BOTH;
+        }
+        for e in axis_list {
+            match e.kind() {
+                END if e.pos <= split.pos => self.side[e.tri()] = LEFT,
+                START if e.pos >= split.pos => self.side[e.tri()] = RIGHT,
+                PLANAR => {
+                    let left = e.pos < split.pos || (e.pos == split.pos && split.planar_left);
+                    self.side[e.tri()] = if left { LEFT } else { RIGHT };
+                }
+                _ => {}
+            }
+        }
+        let straddling: Vec<usize> = axis_list
+            .iter()
+            .filter(|e| e.kind() == START && self.side[e.tri()] == BOTH)
+            .map(|e| e.tri())
+            .collect();
+
+        let mut left: [Vec<Event>; 3] = Default::default();
+        let mut right: [Vec<Event>; 3] = Default::default();
+        for (axis, list) in events.into_iter().enumerate() {
+            let (l, r) = (&mut left[axis], &mut right[axis]);
+            l.reserve(list.len() / 2 + 16);
+            r.reserve(list.len() / 2 + 16);
+            for e in list {
+                match self.side[e.tri()] {
+                    LEFT => l.push(e),
+                    RIGHT => r.push(e),
+                    _ => {}
+                }
+            }
+        }
+        let sides = |lists: &[Vec<Event>; 3]| lists[0].iter().filter(|e| e.kind() != END).count();
+        let (mut left_count, mut right_count) = (sides(&left), sides(&right));
+
+        let (mut left_box, mut right_box) = (*bx, *bx);
+        left_box.hi[split.axis] = f64::from(split.pos);
+        right_box.lo[split.axis] = f64::from(split.pos);
+        let mut new_left: [Vec<Event>; 3] = Default::default();
+        let mut new_right: [Vec<Event>; 3] = Default::default();
+        for t in straddling {
+            let tri = &self.tris[t];
+            let (v, tri_box) = (tri.vertices(), tri.bounds());
+            if let Some(b) = clip_bounds(&v, &tri_box, &left_box) {
+                push_events(&mut new_left, t as u32, &b);
+                left_count += 1;
+            }
+            if let Some(b) = clip_bounds(&v, &tri_box, &right_box) {
+                push_events(&mut new_right, t as u32, &b);
+                right_count += 1;
+            }
+        }
+        let merged = |old: [Vec<Event>; 3], new: [Vec<Event>; 3]| {
+            let [o0, o1, o2] = old;
+            let [n0, n1, n2] = new;
+            [merge(o0, n0), merge(o1, n1), merge(o2, n2)]
+        };
+        (
+            (merged(left, new_left), left_count),
+            (merged(right, new_right), right_count),
+        )
+    }
+}
+
+/// The original's builder, kept for comparison: round-robin axes, the split at the median of
+/// the triangles' clipped-box centres, leaves at depth 15 or at most 15 triangles.
+struct MedianBuilder<'a> {
+    tris: &'a [Tri],
+    out: Output,
+}
+
+impl MedianBuilder<'_> {
+    /// `items`: build numbers of the node's triangles with their boxes clipped to it.
+    fn node(&mut self, items: Vec<(usize, Aabb)>, bx: Aabb, depth: u32) {
+        let axis = (depth % 3) as usize;
+        let split = (depth < MEDIAN_MAX_DEPTH && items.len() > MEDIAN_LEAF_TRIANGLES)
+            .then(|| {
+                let mut centres: Vec<f64> = items.iter().map(|(_, b)| b.center()[axis]).collect();
+                let mid = centres.len() / 2;
+                let median = *centres.select_nth_unstable_by(mid, f64::total_cmp).1;
+                let inside = |s: f32| f64::from(s) > bx.lo[axis] && f64::from(s) < bx.hi[axis];
+                // The median centre can sit on the box face (triangles crowding it): then
+                // the middle of the box, as a spatial median.
+                [median as f32, bx.center()[axis] as f32]
+                    .into_iter()
+                    .find(|&s| inside(s))
+            })
+            .flatten();
+        let Some(split) = split else {
+            self.out
+                .leaf(items.iter().map(|&(t, _)| self.tris[t].number).collect());
+            return;
+        };
+        let (mut left_box, mut right_box) = (bx, bx);
+        left_box.hi[axis] = f64::from(split);
+        right_box.lo[axis] = f64::from(split);
+        let child = |child_box: &Aabb| -> Vec<(usize, Aabb)> {
+            items
+                .iter()
+                .filter_map(|&(t, _)| {
+                    let tri = &self.tris[t];
+                    clip_bounds(&tri.vertices(), &tri.bounds(), child_box).map(|b| (t, b))
+                })
+                .collect()
+        };
+        let (left, right) = (child(&left_box), child(&right_box));
+        drop(items);
+        let at = self.out.nodes.len();
+        self.out.nodes.push(KdNode::default());
+        self.node(left, left_box, depth + 1);
+        self.out.nodes[at] = KdNode::interior(axis, split, self.out.nodes.len() as u32);
+        self.node(right, right_box, depth + 1);
+    }
+}
+
+/// True when the flattened tree's references fit the node format (30-bit child index, 32-bit
+/// index offset).
+fn fits_format(out: &Output) -> bool {
+    out.nodes.len() <= (1 << 30) && u32::try_from(out.indices.len()).is_ok()
+}
+
+impl KdTree {
+    /// The SAH kd-tree of a mesh given as vertex positions (object space) and index triples.
+    /// Zero-area triangles and those with missing or non-finite vertices are left out.
+    pub fn build(positions: &[[f32; 3]], triangles: &[[u32; 3]], params: &KdParams) -> KdTree {
+        let tris = valid_triangles(positions, triangles);
+        let bounds = tris.iter().fold(Aabb::EMPTY, |b, t| b.union(t.bounds()));
+        let auto_depth = || (8.0 + 1.3 * (tris.len().max(1) as f64).log2()).round() as u32;
+        let mut max_depth = match params.max_depth {
+            0 => auto_depth(),
+            d => d,
+        }
+        .min(MAX_DEPTH);
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+        // Two subtrees per thread at the top balance the load well enough.
+        let parallel_depth = if threads > 1 {
+            usize::BITS - (threads - 1).leading_zeros() + 1
+        } else {
+            0
+        };
+        let mut events: [Vec<Event>; 3] = Default::default();
+        for (t, tri) in tris.iter().enumerate() {
+            push_events(&mut events, t as u32, &tri.bounds());
+        }
+        for list in &mut events {
+            list.sort_unstable_by_key(|e| e.key());
+        }
+        loop {
+            let costs = Costs {
+                traversal: params.traversal_cost,
+                intersection: params.intersection_cost,
+                empty_factor: 1.0 - params.empty_bonus,
+                max_depth,
+                max_leaf_triangles: params.max_leaf_triangles as usize,
+            };
+            let mut builder = SahBuilder::new(&tris, &costs, parallel_depth);
+            builder.node(events.clone(), bounds, tris.len(), 0);
+            // Only a mesh of hundreds of millions of triangles could overflow the format;
+            // a shallower tree then fits (depth 0 is one leaf of fewer than 2^30 triangles).
+            if fits_format(&builder.out) || max_depth == 0 {
+                return KdTree {
+                    nodes: builder.out.nodes,
+                    indices: builder.out.indices,
+                    bounds,
+                };
+            }
+            max_depth = max_depth.saturating_sub(4);
+        }
+    }
+
+    /// The original's tree, for comparison: round-robin axes, median splits, depth ≤ 15,
+    /// ≤ 15 triangles per leaf (more only at depth 15).
+    pub fn build_median(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> KdTree {
+        let tris = valid_triangles(positions, triangles);
+        let items: Vec<(usize, Aabb)> = tris
+            .iter()
+            .enumerate()
+            .map(|(t, tri)| (t, tri.bounds()))
+            .collect();
+        let bounds = items.iter().fold(Aabb::EMPTY, |b, (_, t)| b.union(*t));
+        let mut builder = MedianBuilder {
+            tris: &tris,
+            out: Output {
+                nodes: Vec::new(),
+                indices: Vec::new(),
+            },
+        };
+        builder.node(items, bounds, 0);
+        KdTree {
+            nodes: builder.out.nodes,
+            indices: builder.out.indices,
+            bounds,
+        }
+    }
+
+    /// Every node with its box and depth, depth first (boxes recomputed from the root bounds
+    /// and the splits). Stops at references out of range rather than panicking.
+    pub fn node_boxes(&self) -> Vec<(usize, Aabb, u32)> {
+        let mut out = Vec::with_capacity(self.nodes.len());
+        let mut stack = vec![(0usize, self.bounds, 0u32)];
+        while let Some((i, bx, depth)) = stack.pop() {
+            let Some(node) = self.nodes.get(i) else {
+                continue;
+            };
+            out.push((i, bx, depth));
+            if !node.is_leaf() && depth < MAX_DEPTH {
+                let (mut below, mut above) = (bx, bx);
+                below.hi[node.axis()] = f64::from(node.split());
+                above.lo[node.axis()] = f64::from(node.split());
+                stack.push((node.above_child() as usize, above, depth + 1));
+                stack.push((i + 1, below, depth + 1));
+            }
+        }
+        out
+    }
+
+    /// Size, shape and SAH cost of the tree (`positions` and `triangles` are the mesh it was
+    /// built from, to count the triangles it leaves out).
+    pub fn stats(&self, positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> KdStats {
+        let costs = KdParams::default();
+        let root_area = self.bounds.surface_area();
+        let mut stats = KdStats {
+            nodes: self.nodes.len(),
+            leaves: 0,
+            empty_leaves: 0,
+            max_depth: 0,
+            mean_leaf_triangles: 0.0,
+            index_entries: self.indices.len(),
+            sah_cost: 0.0,
+            bytes: self.nodes.len() * size_of::<KdNode>() + self.indices.len() * size_of::<u32>(),
+            skipped_triangles: (0..triangles.len())
+                .filter(|&i| valid_triangle(positions, triangles, i).is_none())
+                .count(),
+        };
+        let mut referenced = 0usize;
+        for (i, bx, depth) in self.node_boxes() {
+            let node = self.nodes[i];
+            let weight = if root_area > 0.0 {
+                bx.surface_area() / root_area
+            } else {
+                1.0
+            };
+            if node.is_leaf() {
+                stats.leaves += 1;
+                stats.max_depth = stats.max_depth.max(depth);
+                if node.count() == 0 {
+                    stats.empty_leaves += 1;
+                }
+                referenced += node.count() as usize;
+                stats.sah_cost += costs.intersection_cost * f64::from(node.count()) * weight;
+            } else {
+                stats.sah_cost += costs.traversal_cost * weight;
+            }
+        }
+        let full = stats.leaves - stats.empty_leaves;
+        if full > 0 {
+            stats.mean_leaf_triangles = referenced as f64 / full as f64;
+        }
+        stats
+    }
+
+    /// The nearest hit (t, triangle number) of o + t d for t_min < t < t_max: the host
+    /// reference of the device traversal.
+    ///
+    /// The ray is clipped to the root box, then walks the tree front to back: at an interior
+    /// node the child on the origin's side of the plane comes first, and the far child is
+    /// pushed with the interval past the plane only if the ray reaches the plane inside the
+    /// node's interval. A ray parallel to the plane stays on the origin's side (below when it
+    /// lies in the plane). Each leaf's triangles are tested against the whole ray; the nearest
+    /// hit so far ends the walk as soon as it lies within the current leaf's [t_min, t_max]
+    /// (any later leaf starts beyond it), and a hit beyond the leaf waits for the later leaves.
+    /// Accepting a hit beyond the leaf, instead of dropping it and finding it again in the
+    /// leaf that owns it, also keeps hits that rounding puts an ulp past the plane or box face
+    /// they lie on (a triangle in a split plane, or on the root box, is stored on one side
+    /// only).
+    #[allow(clippy::too_many_arguments)]
+    pub fn intersect(
+        &self,
+        positions: &[[f32; 3]],
+        triangles: &[[u32; 3]],
+        o: DVec3,
+        d: DVec3,
+        t_min: f64,
+        t_max: f64,
+    ) -> Option<(f64, u32)> {
+        if self.bounds.is_empty() {
+            return None;
+        }
+        let (mut near, mut far) = self.bounds.clip_ray(o, d, t_min, t_max)?;
+        let inv_d = d.recip();
+        let mut stack = [(0u32, 0.0f64, 0.0f64); MAX_DEPTH as usize];
+        let mut depth = 0usize;
+        let mut node_index = 0usize;
+        let mut best: Option<(f64, u32)> = None;
+        loop {
+            let node = self.nodes.get(node_index)?;
+            if node.is_leaf() {
+                let first = node.first_index() as usize;
+                let leaf = self
+                    .indices
+                    .get(first..first + node.count() as usize)
+                    .unwrap_or(&[]);
+                for &tri in leaf {
+                    let limit = best.map_or(t_max, |b| b.0);
+                    let hit = triangle_vertices(positions, triangles, tri)
+                        .and_then(|v| intersect_triangle(o, d, &v, t_min, limit));
+                    if let Some(t) = hit {
+                        best = Some((t, tri));
+                    }
+                }
+                if best.is_some_and(|b| b.0 <= far) || depth == 0 {
+                    return best;
+                }
+                depth -= 1;
+                let (next, n0, n1) = stack[depth];
+                (node_index, near, far) = (next as usize, n0, n1);
+                if best.is_some_and(|b| b.0 < near) {
+                    return best;
+                }
+                continue;
+            }
+            let axis = node.axis();
+            let split = f64::from(node.split());
+            let below = node_index + 1;
+            let above = node.above_child() as usize;
+            if d[axis] == 0.0 {
+                // Parallel to the plane: the ray stays on its origin's side (below if in it).
+                node_index = if o[axis] <= split { below } else { above };
+                continue;
+            }
+            // The ray is on the `before` side for t < t_split and on `after` beyond it.
+            let t_split = (split - o[axis]) * inv_d[axis];
+            let (before, after) = if d[axis] > 0.0 {
+                (below, above)
+            } else {
+                (above, below)
+            };
+            if t_split > far {
+                node_index = before;
+            } else if t_split < near {
+                node_index = after;
+            } else {
+                if let Some(slot) = stack.get_mut(depth) {
+                    *slot = (after as u32, t_split, far);
+                    depth += 1;
+                }
+                node_index = before;
+                far = t_split;
+            }
+        }
+    }
+}

@@ -142,19 +142,82 @@ pub struct Material {
 }
 const _: () = assert!(size_of::<Material>() == 44);
 
-/// `Sphere` in `types.h`.
+/// `TRANSFORM_NONE` in `types.h`.
+pub const TRANSFORM_NONE: u32 = u32::MAX;
+/// `OBJECT_SPHERE` in `types.h`.
+pub const OBJECT_SPHERE: u32 = 0;
+/// `OBJECT_PLANE` in `types.h`.
+pub const OBJECT_PLANE: u32 = 1;
+/// `OBJECT_MESH` in `types.h`.
+pub const OBJECT_MESH: u32 = 2;
+
+/// `Transform` in `types.h`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Transform {
+    pub m: [f32; 12],
+    pub inv: [f32; 12],
+}
+const _: () = assert!(size_of::<Transform>() == 96);
+
+/// `Sphere` in `types.h`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Sphere {
     pub center: [f32; 3],
     pub radius: f32,
     pub material: u32,
+    pub transform: u32,
 }
-const _: () = assert!(size_of::<Sphere>() == 20);
+const _: () = assert!(size_of::<Sphere>() == 24);
+
+impl Default for Sphere {
+    fn default() -> Self {
+        Sphere {
+            center: [0.0; 3],
+            radius: 1.0,
+            material: 0,
+            transform: TRANSFORM_NONE,
+        }
+    }
+}
+
+/// `MeshDesc` in `types.h`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct MeshDesc {
+    pub first_node: u32,
+    pub first_index: u32,
+    pub first_triangle: u32,
+    pub first_vertex: u32,
+    pub has_normals: u32,
+    pub lo: [f32; 3],
+    pub hi: [f32; 3],
+}
+const _: () = assert!(size_of::<MeshDesc>() == 44);
+
+/// `MeshInstance` in `types.h`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct MeshInstance {
+    pub mesh: u32,
+    pub transform: u32,
+    pub material: u32,
+}
+const _: () = assert!(size_of::<MeshInstance>() == 12);
+
+/// `ObjectRef` in `types.h`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ObjectRef {
+    pub kind: u32,
+    pub index: u32,
+}
+const _: () = assert!(size_of::<ObjectRef>() == 8);
 
 /// `Plane` in `types.h`.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Plane {
     pub normal: [f32; 3],
     pub offset: f32,
@@ -163,23 +226,40 @@ pub struct Plane {
     pub dir_u: [f32; 3],
     pub dir_v: [f32; 3],
     pub material: u32,
+    pub transform: u32,
 }
-const _: () = assert!(size_of::<Plane>() == 60);
+const _: () = assert!(size_of::<Plane>() == 64);
+
+impl Default for Plane {
+    fn default() -> Self {
+        Plane {
+            normal: [0.0, 0.0, 1.0],
+            offset: 0.0,
+            range: 1.0,
+            centerp: [0.0; 3],
+            dir_u: [0.0; 3],
+            dir_v: [0.0; 3],
+            material: 0,
+            transform: TRANSFORM_NONE,
+        }
+    }
+}
 
 /// `RenderParams` in `types.h`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct RenderParams {
     pub camera: Camera,
-    pub num_spheres: u32,
-    pub num_planes: u32,
+    pub num_objects: u32,
+    pub first_unbounded: u32,
+    pub num_bvh_nodes: u32,
     pub seed_lo: u32,
     pub seed_hi: u32,
     pub max_depth: u32,
     pub rr_depth: u32,
     pub texture_filter: u32,
 }
-const _: () = assert!(size_of::<RenderParams>() == 116);
+const _: () = assert!(size_of::<RenderParams>() == 120);
 
 /// One struct's layout as Rust sees it: its C name, size, and (field name, offset) pairs.
 pub struct StructLayout {
@@ -218,13 +298,26 @@ pub const LAYOUT: &[StructLayout] = &[
         emission => "emission", color => "color", kind => "type", color_map => "color_map",
         emission_map => "emission_map", type_map => "type_map", bump_map => "bump_map",
     }),
-    layout!(Sphere, "Sphere", { center => "center", radius => "radius", material => "material" }),
+    layout!(Transform, "Transform", { m => "m", inv => "inv" }),
+    layout!(Sphere, "Sphere", {
+        center => "center", radius => "radius", material => "material", transform => "transform",
+    }),
+    layout!(MeshDesc, "MeshDesc", {
+        first_node => "first_node", first_index => "first_index",
+        first_triangle => "first_triangle", first_vertex => "first_vertex",
+        has_normals => "has_normals", lo => "lo", hi => "hi",
+    }),
+    layout!(MeshInstance, "MeshInstance", {
+        mesh => "mesh", transform => "transform", material => "material",
+    }),
+    layout!(ObjectRef, "ObjectRef", { kind => "kind", index => "index" }),
     layout!(Plane, "Plane", {
         normal => "normal", offset => "offset", range => "range", centerp => "centerp",
-        dir_u => "dir_u", dir_v => "dir_v", material => "material",
+        dir_u => "dir_u", dir_v => "dir_v", material => "material", transform => "transform",
     }),
     layout!(RenderParams, "RenderParams", {
-        camera => "camera", num_spheres => "num_spheres", num_planes => "num_planes",
+        camera => "camera", num_objects => "num_objects", first_unbounded => "first_unbounded",
+        num_bvh_nodes => "num_bvh_nodes",
         seed_lo => "seed_lo", seed_hi => "seed_hi", max_depth => "max_depth",
         rr_depth => "rr_depth", texture_filter => "texture_filter",
     }),

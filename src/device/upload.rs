@@ -1,35 +1,102 @@
 //! Host scene → device data: packs the f64 scene into the f32 structs of `kernels/types.h`
-//! and its texture maps into one texel buffer ([`PackedScene`], testable without a device),
-//! and uploads them ([`SceneBuffers`]).
+//! ([`PackedScene`], testable without a device): materials and their texture maps, spheres,
+//! planes, transforms, meshes (each OBJ file loaded and its kd-tree built once, however many
+//! instances use it), the object table and the BVH over it; and uploads them
+//! ([`SceneBuffers`]).
 
 use super::Device;
-use super::layout::{self, Material, Plane, RenderParams, Sphere};
+use super::layout::{
+    self, BvhNode, KdNode, Material, MeshDesc, MeshInstance, ObjectRef, Plane, RenderParams,
+    Sphere, Transform,
+};
+use crate::accel::aabb::Aabb;
+use crate::accel::bvh::Bvh;
+use crate::accel::kdtree::{KdParams, KdTree};
 use crate::error::{Error, Result};
 use crate::scene::camera::CameraBasis;
+use crate::scene::mesh::TriangleMesh;
 use crate::scene::texture::TexturePack;
 use crate::scene::{MaterialKind, Scene, Shape};
-use glam::DVec3;
+use glam::{DMat4, DVec3};
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// What `clpt render -v` reports about one mesh file.
+#[derive(Clone, Debug)]
+pub struct MeshInfo {
+    pub path: PathBuf,
+    pub triangles: usize,
+    pub degenerate: usize,
+    pub instances: usize,
+    pub build_time: Duration,
+    /// Device bytes of its vertices, normals, triangles and kd-tree.
+    pub bytes: usize,
+}
 
 /// The scene as the kernels read it.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct PackedScene {
     pub camera: CameraBasis,
     pub materials: Vec<Material>,
     pub spheres: Vec<Sphere>,
     pub planes: Vec<Plane>,
     pub textures: TexturePack,
+    pub transforms: Vec<Transform>,
+    pub meshes: Vec<MeshDesc>,
+    pub mesh_instances: Vec<MeshInstance>,
+    pub kd_nodes: Vec<KdNode>,
+    pub kd_indices: Vec<u32>,
+    pub triangles: Vec<[u32; 3]>,
+    pub vertices: Vec<[f32; 3]>,
+    pub normals: Vec<[f32; 3]>,
+    pub mesh_info: Vec<MeshInfo>,
+    /// The BVH's leaves index this table; entries from `first_unbounded` on are tested outside it.
+    pub objects: Vec<ObjectRef>,
+    pub first_unbounded: u32,
+    pub bvh: Vec<BvhNode>,
+    /// World boxes of `objects[..first_unbounded]`, as the BVH was built on them.
+    pub object_boxes: Vec<Aabb>,
 }
 
 fn f32x3(v: DVec3) -> [f32; 3] {
     v.as_vec3().to_array()
 }
 
+/// The world box of an object-space box under `m` (all eight corners: the original took two).
+fn transform_box(b: &Aabb, m: Option<&DMat4>) -> Aabb {
+    let Some(m) = m else { return *b };
+    Aabb::from_points((0..8).map(|i| {
+        let corner = DVec3::new(
+            if i & 1 == 0 { b.lo.x } else { b.hi.x },
+            if i & 2 == 0 { b.lo.y } else { b.hi.y },
+            if i & 4 == 0 { b.lo.z } else { b.hi.z },
+        );
+        m.transform_point3(corner)
+    }))
+}
+
+/// The top three rows of a 4x4 matrix, row by row.
+fn rows3x4(m: &DMat4) -> [f32; 12] {
+    let mut out = [0.0f32; 12];
+    for r in 0..3 {
+        for c in 0..4 {
+            out[r * 4 + c] = m.col(c)[r] as f32;
+        }
+    }
+    out
+}
+
 impl PackedScene {
-    /// Packs `scene`, loading its texture maps (each image at most `max_texture_pixels`).
+    /// Packs `scene`, loading its texture maps (each image at most `max_texture_pixels`) and
+    /// meshes, and building the kd-trees and the BVH.
     pub fn new(scene: &Scene, max_texture_pixels: u64) -> Result<PackedScene> {
-        let camera = CameraBasis::new(&scene.camera)?;
         let textures = TexturePack::load(scene, max_texture_pixels)?;
-        let materials = scene
+        let mut packed = PackedScene {
+            camera: CameraBasis::new(&scene.camera)?,
+            ..PackedScene::default()
+        };
+        packed.materials = scene
             .materials
             .iter()
             .zip(&textures.material_maps)
@@ -48,25 +115,30 @@ impl PackedScene {
                     bump_map,
                 },
             )
-            .collect::<Vec<_>>();
-        let mut spheres = Vec::new();
-        let mut planes = Vec::new();
+            .collect();
+        packed.textures = textures;
+        let mut loaded: HashMap<PathBuf, u32> = HashMap::new();
         for object in &scene.objects {
-            if object.material >= materials.len() {
+            if object.material >= packed.materials.len() {
                 return Err(Error::Invalid(format!(
                     "{}: material index {} but the scene has {} materials",
                     object.location,
                     object.material,
-                    materials.len()
+                    packed.materials.len()
                 )));
             }
             let material = object.material as u32;
+            let transform = object.transform.as_ref();
             match &object.shape {
-                Shape::Sphere { center, radius } => spheres.push(Sphere {
-                    center: f32x3(*center),
-                    radius: *radius as f32,
-                    material,
-                }),
+                Shape::Sphere { center, radius } => {
+                    let sphere = Sphere {
+                        center: f32x3(*center),
+                        radius: *radius as f32,
+                        material,
+                        transform: packed.push_transform(transform),
+                    };
+                    packed.push_sphere(sphere, transform);
+                }
                 Shape::Plane {
                     normal,
                     offset,
@@ -75,10 +147,10 @@ impl PackedScene {
                     dir_u,
                     dir_v,
                 } => {
-                    // n.p = offset with n as written; store the unit normal and scale the
+                    // n.p = offset with n as written: store the unit normal and scale the
                     // offset with it, so the plane is the same set of points.
                     let len = normal.length();
-                    planes.push(Plane {
+                    let plane = Plane {
                         normal: f32x3(*normal / len),
                         offset: (*offset / len) as f32,
                         range: *range as f32,
@@ -86,17 +158,200 @@ impl PackedScene {
                         dir_u: f32x3(*dir_u),
                         dir_v: f32x3(*dir_v),
                         material,
-                    })
+                        transform: packed.push_transform(transform),
+                    };
+                    packed.push_plane(plane, transform);
+                }
+                Shape::Mesh { file } => {
+                    let path = crate::scene::resolve(
+                        "mesh",
+                        file,
+                        scene.base_dir.as_deref(),
+                        &object.location,
+                    )?;
+                    let mesh = match loaded.get(&path) {
+                        Some(&m) => m,
+                        None => {
+                            let m = packed.push_mesh(TriangleMesh::load(&path)?)?;
+                            loaded.insert(path, m);
+                            m
+                        }
+                    };
+                    packed.mesh_info[mesh as usize].instances += 1;
+                    let instance = MeshInstance {
+                        mesh,
+                        transform: packed.push_transform(transform),
+                        material,
+                    };
+                    let desc = &packed.meshes[mesh as usize];
+                    let bounds = Aabb {
+                        lo: DVec3::from(desc.lo.map(f64::from)),
+                        hi: DVec3::from(desc.hi.map(f64::from)),
+                    };
+                    packed.push_object(
+                        layout::OBJECT_MESH,
+                        packed.mesh_instances.len(),
+                        transform_box(&bounds, transform),
+                    );
+                    packed.mesh_instances.push(instance);
                 }
             }
         }
-        Ok(PackedScene {
+        packed.build_bvh();
+        Ok(packed)
+    }
+
+    /// A scene of untransformed spheres and planes made in code (tests, probes).
+    pub fn from_parts(
+        camera: CameraBasis,
+        materials: Vec<Material>,
+        spheres: Vec<Sphere>,
+        planes: Vec<Plane>,
+    ) -> PackedScene {
+        let mut packed = PackedScene {
             camera,
             materials,
-            spheres,
-            planes,
-            textures,
-        })
+            ..PackedScene::default()
+        };
+        for s in spheres {
+            packed.push_sphere(s, None);
+        }
+        for p in planes {
+            packed.push_plane(p, None);
+        }
+        packed.build_bvh();
+        packed
+    }
+
+    fn push_transform(&mut self, m: Option<&DMat4>) -> u32 {
+        match m {
+            None => layout::TRANSFORM_NONE,
+            Some(m) => {
+                self.transforms.push(Transform {
+                    m: rows3x4(m),
+                    inv: rows3x4(&m.inverse()),
+                });
+                self.transforms.len() as u32 - 1
+            }
+        }
+    }
+
+    fn push_object(&mut self, kind: u32, index: usize, world_box: Aabb) {
+        self.objects.push(ObjectRef {
+            kind,
+            index: index as u32,
+        });
+        self.object_boxes.push(world_box);
+    }
+
+    fn push_sphere(&mut self, s: Sphere, transform: Option<&DMat4>) {
+        let c = DVec3::from(s.center.map(f64::from));
+        let r = DVec3::splat(s.radius as f64);
+        let b = transform_box(
+            &Aabb {
+                lo: c - r,
+                hi: c + r,
+            },
+            transform,
+        );
+        self.push_object(layout::OBJECT_SPHERE, self.spheres.len(), b);
+        self.spheres.push(s);
+    }
+
+    fn push_plane(&mut self, p: Plane, transform: Option<&DMat4>) {
+        // The original's finite plane: the cube of half-size `range` around n * offset.
+        let n = DVec3::from(p.normal.map(f64::from));
+        let c = n * p.offset as f64;
+        let r = DVec3::splat(p.range as f64);
+        let b = transform_box(
+            &Aabb {
+                lo: c - r,
+                hi: c + r,
+            },
+            transform,
+        );
+        self.push_object(layout::OBJECT_PLANE, self.planes.len(), b);
+        self.planes.push(p);
+    }
+
+    fn push_mesh(&mut self, mesh: TriangleMesh) -> Result<u32> {
+        let start = Instant::now();
+        let tree = KdTree::build(&mesh.positions, &mesh.triangles, &KdParams::default());
+        let (lo, hi) = tree.bounds.to_f32_outward();
+        let too_big = |what: &str| Error::Mesh {
+            path: mesh.path.clone(),
+            message: format!("the scene's meshes exceed 2^32 {what}"),
+        };
+        let desc = MeshDesc {
+            first_node: u32::try_from(self.kd_nodes.len()).map_err(|_| too_big("kd-tree nodes"))?,
+            first_index: u32::try_from(self.kd_indices.len()).map_err(|_| too_big("indices"))?,
+            first_triangle: u32::try_from(self.triangles.len())
+                .map_err(|_| too_big("triangles"))?,
+            first_vertex: u32::try_from(self.vertices.len()).map_err(|_| too_big("vertices"))?,
+            has_normals: mesh.normals.is_some() as u32,
+            lo,
+            hi,
+        };
+        let bytes = tree.nodes.len() * 8
+            + tree.indices.len() * 4
+            + mesh.triangles.len() * 12
+            + mesh.positions.len() * 12
+            + mesh.normals.as_ref().map_or(0, |n| n.len() * 12);
+        self.kd_nodes.extend(&tree.nodes);
+        self.kd_indices.extend(&tree.indices);
+        self.triangles.extend(&mesh.triangles);
+        self.vertices.extend(&mesh.positions);
+        if let Some(normals) = &mesh.normals {
+            self.normals.extend(normals);
+        } else {
+            // Keep vertex and normal numbers aligned: normals of this mesh are never read.
+            self.normals.resize(self.vertices.len(), [0.0; 3]);
+        }
+        self.meshes.push(desc);
+        self.mesh_info.push(MeshInfo {
+            path: mesh.path,
+            triangles: mesh.triangles.len(),
+            degenerate: mesh.degenerate,
+            instances: 0,
+            build_time: start.elapsed(),
+            bytes,
+        });
+        Ok(self.meshes.len() as u32 - 1)
+    }
+
+    fn build_bvh(&mut self) {
+        let bvh = Bvh::build(&self.object_boxes);
+        self.first_unbounded = self.objects.len() as u32;
+        let unbounded: Vec<ObjectRef> = bvh
+            .unbounded
+            .iter()
+            .map(|&i| self.objects[i as usize])
+            .collect();
+        self.objects.extend(unbounded);
+        self.bvh = bvh.nodes;
+    }
+
+    /// A line per mesh, for `clpt render -v`.
+    pub fn mesh_report(&self) -> String {
+        let mut out = format!(
+            "objects: {} in a BVH of {} nodes, {} outside it",
+            self.first_unbounded,
+            self.bvh.len(),
+            self.objects.len() as u32 - self.first_unbounded
+        );
+        for m in &self.mesh_info {
+            out.push_str(&format!(
+                "\nmesh {}: {} triangles ({} degenerate dropped), {} instance(s), kd-tree built in {:.3} s, {} bytes ({:.1} per triangle)",
+                m.path.display(),
+                m.triangles,
+                m.degenerate,
+                m.instances,
+                m.build_time.as_secs_f64(),
+                m.bytes,
+                m.bytes as f64 / m.triangles.max(1) as f64
+            ));
+        }
+        out
     }
 
     pub fn params(
@@ -108,8 +363,9 @@ impl PackedScene {
     ) -> RenderParams {
         RenderParams {
             camera: self.camera.to_device(),
-            num_spheres: self.spheres.len() as u32,
-            num_planes: self.planes.len() as u32,
+            num_objects: self.objects.len() as u32,
+            first_unbounded: self.first_unbounded,
+            num_bvh_nodes: self.bvh.len() as u32,
             seed_lo: seed as u32,
             seed_hi: (seed >> 32) as u32,
             max_depth,
@@ -141,7 +397,7 @@ pub fn upload_slice<T: bytemuck::Pod + Default>(
         .map_err(|e| Error::opencl("uploading scene data", e))
 }
 
-/// The scene's device buffers.
+/// The scene's device buffers, in the order the kernels take them (`Scene` in objects.h).
 pub struct SceneBuffers {
     pub params: ocl::Buffer<u8>,
     pub materials: ocl::Buffer<u8>,
@@ -149,6 +405,16 @@ pub struct SceneBuffers {
     pub planes: ocl::Buffer<u8>,
     pub maps: ocl::Buffer<u8>,
     pub texels: ocl::Buffer<u8>,
+    pub transforms: ocl::Buffer<u8>,
+    pub meshes: ocl::Buffer<u8>,
+    pub mesh_instances: ocl::Buffer<u8>,
+    pub kd_nodes: ocl::Buffer<u8>,
+    pub kd_indices: ocl::Buffer<u8>,
+    pub triangles: ocl::Buffer<u8>,
+    pub vertices: ocl::Buffer<u8>,
+    pub normals: ocl::Buffer<u8>,
+    pub objects: ocl::Buffer<u8>,
+    pub bvh: ocl::Buffer<u8>,
 }
 
 impl SceneBuffers {
@@ -160,6 +426,38 @@ impl SceneBuffers {
             planes: upload_slice(device, &packed.planes)?,
             maps: upload_slice(device, &packed.textures.maps)?,
             texels: upload_slice(device, &packed.textures.texels)?,
+            transforms: upload_slice(device, &packed.transforms)?,
+            meshes: upload_slice(device, &packed.meshes)?,
+            mesh_instances: upload_slice(device, &packed.mesh_instances)?,
+            kd_nodes: upload_slice(device, &packed.kd_nodes)?,
+            kd_indices: upload_slice(device, &packed.kd_indices)?,
+            triangles: upload_slice(device, &packed.triangles)?,
+            vertices: upload_slice(device, &packed.vertices)?,
+            normals: upload_slice(device, &packed.normals)?,
+            objects: upload_slice(device, &packed.objects)?,
+            bvh: upload_slice(device, &packed.bvh)?,
         })
+    }
+
+    /// Every buffer in kernel-argument order (the `Scene` struct of objects.h).
+    pub fn in_order(&self) -> [&ocl::Buffer<u8>; 16] {
+        [
+            &self.params,
+            &self.materials,
+            &self.spheres,
+            &self.planes,
+            &self.maps,
+            &self.texels,
+            &self.transforms,
+            &self.meshes,
+            &self.mesh_instances,
+            &self.kd_nodes,
+            &self.kd_indices,
+            &self.triangles,
+            &self.vertices,
+            &self.normals,
+            &self.objects,
+            &self.bvh,
+        ]
     }
 }

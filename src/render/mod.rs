@@ -151,17 +151,16 @@ impl<'d> Renderer<'d> {
         };
         let sum = film_buffer()?;
         let sum_sq = film_buffer()?;
-        let kernel = ocl::Kernel::builder()
+        let mut builder = ocl::Kernel::builder();
+        builder
             .program(&program.program)
             .name("render_pass")
             .queue(device.queue.clone())
-            .global_work_size([GROUP, GROUP])
-            .arg(&scene_buffers.params)
-            .arg(&scene_buffers.materials)
-            .arg(&scene_buffers.spheres)
-            .arg(&scene_buffers.planes)
-            .arg(&scene_buffers.maps)
-            .arg(&scene_buffers.texels)
+            .global_work_size([GROUP, GROUP]);
+        for buffer in scene_buffers.in_order() {
+            builder.arg(buffer);
+        }
+        let kernel = builder
             .arg(&sum)
             .arg(&sum_sq)
             .arg(0u32)
@@ -198,10 +197,11 @@ impl<'d> Renderer<'d> {
                 .set_arg(i, v)
                 .map_err(|e| Error::opencl("setting a kernel argument", e))
         };
-        set(8, sample_start)?;
-        set(9, count)?;
-        set(10, row_start)?;
-        set(11, rows)?;
+        // After the 16 scene buffers and the two film buffers.
+        set(18, sample_start)?;
+        set(19, count)?;
+        set(20, row_start)?;
+        set(21, rows)?;
         // SAFETY: the kernel's buffers are alive (owned by self) and sized for the whole
         // image; the kernel bounds-checks the padded work-items.
         unsafe {

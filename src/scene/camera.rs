@@ -14,7 +14,7 @@ use glam::DVec3;
 pub const MAX_PIXELS: u64 = 1 << 30;
 
 /// The image-plane vectors of a camera, in f64 (the f64 reference in the tests uses them too).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CameraBasis {
     pub origin: DVec3,
     pub forward: DVec3,

@@ -4,11 +4,13 @@
 
 pub mod builtin;
 pub mod camera;
+pub mod mesh;
 pub mod parse;
+pub mod procedural;
 pub mod texture;
 
 use crate::error::{Location, Warning};
-use glam::DVec3;
+use glam::{DMat4, DVec3};
 use std::path::{Path, PathBuf};
 
 /// `PerspectiveCamera { center direction angle width height flength aperture }`.
@@ -80,6 +82,9 @@ pub enum Shape {
         dir_u: DVec3,
         dir_v: DVec3,
     },
+    /// `Mesh { obj_file PATH }` or `TriangleMesh { obj_file PATH }`: the path as written,
+    /// resolved like texture paths when the mesh is loaded.
+    Mesh { file: PathBuf },
 }
 
 /// An object of the `Group` with the material index in force where it was declared.
@@ -87,6 +92,9 @@ pub enum Shape {
 pub struct Object {
     pub shape: Shape,
     pub material: usize,
+    /// Object-to-world matrix of the `Transform` blocks around it (composed outer · inner);
+    /// `None` when the object is not inside any.
+    pub transform: Option<DMat4>,
     pub location: Location,
 }
 
@@ -126,5 +134,45 @@ impl Scene {
                 .to_path_buf(),
         );
         Ok(scene)
+    }
+}
+
+/// Finds a file a scene names (`what`: "texture", "mesh"): as written if absolute, else relative to the scene file's folder,
+/// then that folder's parent (the original's files name `texture/x.ppm` from their project
+/// root), then the working directory.
+pub fn resolve(
+    what: &'static str,
+    written: &Path,
+    base_dir: Option<&Path>,
+    at: &Location,
+) -> crate::Result<PathBuf> {
+    if written.is_absolute() {
+        return if written.is_file() {
+            Ok(written.to_path_buf())
+        } else {
+            Err(crate::Error::FileNotFound {
+                what,
+                location: at.clone(),
+                written: written.display().to_string(),
+                tried: vec![written.to_path_buf()],
+            })
+        };
+    }
+    let mut tried = Vec::new();
+    if let Some(base) = base_dir {
+        tried.push(base.join(written));
+        if let Some(parent) = base.parent() {
+            tried.push(parent.join(written));
+        }
+    }
+    tried.push(written.to_path_buf());
+    match tried.iter().find(|p| p.is_file()) {
+        Some(p) => Ok(p.clone()),
+        None => Err(crate::Error::FileNotFound {
+            what,
+            location: at.clone(),
+            written: written.display().to_string(),
+            tried,
+        }),
     }
 }

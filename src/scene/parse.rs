@@ -21,7 +21,7 @@
 
 use super::{CameraDesc, Material, MaterialKind, Object, Scene, Shape, TextureFiles};
 use crate::error::{Location, ParseError, Warning};
-use glam::DVec3;
+use glam::{DMat4, DVec3};
 use std::path::PathBuf;
 
 type Result<T> = std::result::Result<T, ParseError>;
@@ -44,7 +44,31 @@ const MATERIAL_FIELDS: [&str; 5] = ["emission", "color", "type", "texture", "}"]
 const TEXTURE_FIELDS: [&str; 5] = ["color", "emission", "type", "bump", "}"];
 const SPHERE_FIELDS: [&str; 3] = ["center", "radius", "}"];
 const PLANE_FIELDS: [&str; 7] = ["normal", "offset", "range", "centerp", "dirU", "dirV", "}"];
-const GROUP_ITEMS: [&str; 4] = ["MaterialIndex", "Sphere", "Plane", "}"];
+const GROUP_ITEMS: [&str; 7] = [
+    "MaterialIndex",
+    "Sphere",
+    "Plane",
+    "Mesh",
+    "TriangleMesh",
+    "Transform",
+    "}",
+];
+const TRANSFORM_ITEMS: [&str; 14] = [
+    "Scale",
+    "UniformScale",
+    "Translate",
+    "XRotate",
+    "YRotate",
+    "ZRotate",
+    "Rotate",
+    "Matrix4f",
+    "Sphere",
+    "Plane",
+    "Mesh",
+    "TriangleMesh",
+    "Transform",
+    "}",
+];
 
 /// Parses the text of a scene file; `file` names it in locations and becomes [`Scene::source`].
 pub fn parse_scene(text: &str, file: &str) -> Result<Scene> {
@@ -220,7 +244,7 @@ fn group_block<'a>(
     let mut material = 0;
     loop {
         let key = cur.field()?;
-        let shape = match key.text {
+        match key.text {
             "}" => break,
             "MaterialIndex" => {
                 // The original's case2 ends its group with a bare `MaterialIndex`.
@@ -237,19 +261,18 @@ fn group_block<'a>(
                     None => group.unchecked.push((index, token)),
                 }
                 material = index;
-                continue;
             }
-            "Sphere" => sphere_block(cur, key)?,
-            "Plane" => plane_block(cur, key)?,
-            "Mesh" | "TriangleMesh" | "Transform" => return Err(cur.unsupported(key, "meshes")),
-            "RevSurface" => return Err(cur.unsupported(key, "curves")),
+            word if is_object(word) => {
+                let (shape, transform) = object_block(cur, key)?;
+                group.objects.push(Object {
+                    shape,
+                    material,
+                    transform,
+                    location: cur.at(key),
+                });
+            }
             _ => return Err(cur.unknown_field(key, keyword, &GROUP_ITEMS)),
-        };
-        group.objects.push(Object {
-            shape,
-            material,
-            location: cur.at(key),
-        });
+        }
     }
     if declared != group.objects.len() {
         cur.warn(
@@ -268,6 +291,97 @@ fn is_object(word: &str) -> bool {
         word,
         "Sphere" | "Plane" | "Mesh" | "TriangleMesh" | "Transform" | "RevSurface"
     )
+}
+
+/// One object (after its keyword), with the matrix of the `Transform` blocks around it.
+fn object_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<(Shape, Option<DMat4>)> {
+    match keyword.text {
+        "Sphere" => Ok((sphere_block(cur, keyword)?, None)),
+        "Plane" => Ok((plane_block(cur, keyword)?, None)),
+        "Mesh" | "TriangleMesh" => Ok((mesh_block(cur, keyword)?, None)),
+        "Transform" => transform_block(cur, keyword),
+        _ => Err(cur.unsupported(keyword, "curves")),
+    }
+}
+
+fn mesh_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Shape> {
+    cur.open_block(keyword)?;
+    let mut file = None;
+    let close = loop {
+        let key = cur.field()?;
+        match key.text {
+            "}" => break key,
+            "obj_file" => cur.once(&mut file, key, |c| c.path("obj_file"))?,
+            _ => return Err(cur.unknown_field(key, keyword, &["obj_file", "}"])),
+        }
+    };
+    Ok(Shape::Mesh {
+        file: cur.required(file, "obj_file", keyword, close)?,
+    })
+}
+
+/// `Transform { Op* Object }`. As in the course framework's parser, each op multiplies the
+/// matrix on the right (M = M Op, so the first op listed is applied last to the object), and
+/// `Matrix4f { 16 numbers }`, read column by column, multiplies it on the left.
+fn transform_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<(Shape, Option<DMat4>)> {
+    cur.open_block(keyword)?;
+    let mut m = DMat4::IDENTITY;
+    let mut inner: Option<(Shape, Option<DMat4>)> = None;
+    loop {
+        let key = cur.field()?;
+        match key.text {
+            "}" => break,
+            "Scale" => m *= DMat4::from_scale(cur.vector("Scale")?.0),
+            "UniformScale" => m *= DMat4::from_scale(DVec3::splat(cur.number("UniformScale")?.0)),
+            "Translate" => m *= DMat4::from_translation(cur.vector("Translate")?.0),
+            "XRotate" => m *= DMat4::from_rotation_x(cur.number("XRotate")?.0.to_radians()),
+            "YRotate" => m *= DMat4::from_rotation_y(cur.number("YRotate")?.0.to_radians()),
+            "ZRotate" => m *= DMat4::from_rotation_z(cur.number("ZRotate")?.0.to_radians()),
+            "Rotate" => {
+                cur.open_block(key)?;
+                let axis = cur.nonzero_vector("Rotate")?;
+                let degrees = cur.number("Rotate")?.0;
+                cur.close_block(key)?;
+                m *= DMat4::from_axis_angle(axis.normalize(), degrees.to_radians());
+            }
+            "Matrix4f" => {
+                cur.open_block(key)?;
+                let mut columns = [0.0; 16];
+                for value in &mut columns {
+                    *value = cur.number("Matrix4f")?.0;
+                }
+                cur.close_block(key)?;
+                m = DMat4::from_cols_array(&columns) * m;
+            }
+            word if is_object(word) => {
+                if inner.is_some() {
+                    return Err(cur.error_at(
+                        key,
+                        format!("`Transform` holds one object; found a second, `{word}`"),
+                    ));
+                }
+                inner = Some(object_block(cur, key)?);
+            }
+            _ => return Err(cur.unknown_field(key, keyword, &TRANSFORM_ITEMS)),
+        }
+    }
+    let Some((shape, inner_m)) = inner else {
+        return Err(cur.error_at(keyword, "`Transform` without an object".into()));
+    };
+    let m = inner_m.map_or(m, |i| m * i);
+    // Singular relative to the matrix's own scale: |det| against the cube of its largest entry.
+    let scale = m
+        .to_cols_array()
+        .iter()
+        .fold(0.0f64, |a, &b| a.max(b.abs()));
+    let det = m.determinant();
+    if !det.is_finite() || det.abs() <= 1e-12 * scale.powi(3) {
+        return Err(cur.error_at(
+            keyword,
+            "this `Transform` is singular (a zero scale?): objects would be flattened".into(),
+        ));
+    }
+    Ok((shape, Some(m)))
 }
 
 fn sphere_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Shape> {
@@ -518,6 +632,17 @@ impl<'a> Cursor<'a> {
         ParseError {
             location: self.end.clone(),
             message: format!("expected {what}, found end of file"),
+        }
+    }
+
+    /// Consumes the `}` that closes a block of fixed contents (`Rotate { .. }`, `Matrix4f`).
+    fn close_block(&mut self, keyword: Token<'a>) -> Result<()> {
+        match self.next() {
+            Some(token) if token.text == "}" => {
+                self.open.pop();
+                Ok(())
+            }
+            found => Err(self.expected(found, &format!("`}}` to close `{}`", keyword.text))),
         }
     }
 

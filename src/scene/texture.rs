@@ -11,7 +11,7 @@
 
 use super::{Scene, Shape};
 use crate::device::layout::{self, MAP_BUMP8, MAP_RGB8, MAP_TYPE8, TextureMap};
-use crate::error::{Error, Location, Result};
+use crate::error::{Error, Result};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -133,39 +133,6 @@ pub fn bump_gradient(image: &RgbImage, x: u32, row: u32) -> [i8; 2] {
     [q(du), q(dv)]
 }
 
-/// Finds a texture file: as written if absolute, else relative to the scene file's folder,
-/// then that folder's parent (the original's files name `texture/x.ppm` from their project
-/// root), then the working directory.
-pub fn resolve(written: &Path, base_dir: Option<&Path>, at: &Location) -> Result<PathBuf> {
-    if written.is_absolute() {
-        return if written.is_file() {
-            Ok(written.to_path_buf())
-        } else {
-            Err(Error::TextureNotFound {
-                location: at.clone(),
-                written: written.display().to_string(),
-                tried: vec![written.to_path_buf()],
-            })
-        };
-    }
-    let mut tried = Vec::new();
-    if let Some(base) = base_dir {
-        tried.push(base.join(written));
-        if let Some(parent) = base.parent() {
-            tried.push(parent.join(written));
-        }
-    }
-    tried.push(written.to_path_buf());
-    match tried.iter().find(|p| p.is_file()) {
-        Some(p) => Ok(p.clone()),
-        None => Err(Error::TextureNotFound {
-            location: at.clone(),
-            written: written.display().to_string(),
-            tried,
-        }),
-    }
-}
-
 /// One packed map, for reports.
 #[derive(Clone, Debug)]
 pub struct MapInfo {
@@ -214,7 +181,12 @@ impl TexturePack {
             ];
             for (slot, (kind, file)) in files.into_iter().enumerate() {
                 let Some(file) = file else { continue };
-                let path = resolve(file, scene.base_dir.as_deref(), &material.location)?;
+                let path = super::resolve(
+                    "texture",
+                    file,
+                    scene.base_dir.as_deref(),
+                    &material.location,
+                )?;
                 if let Some(&map) = packed.get(&(path.clone(), kind)) {
                     pack.material_maps[index][slot] = map;
                     continue;
@@ -228,7 +200,7 @@ impl TexturePack {
                 pack.material_maps[index][slot] = map;
             }
         }
-        check_plane_axes(scene, &pack)?;
+        check_mapped_shapes(scene, &pack)?;
         Ok(pack)
     }
 
@@ -302,22 +274,33 @@ impl TexturePack {
     }
 }
 
-/// Plane texture coordinates run along dirU and dirV: a mapped plane needs both.
-fn check_plane_axes(scene: &Scene, pack: &TexturePack) -> Result<()> {
+/// Plane texture coordinates run along dirU and dirV: a mapped plane needs both. Meshes have
+/// no texture coordinates (the OBJ loader does not read them): maps on them are refused.
+fn check_mapped_shapes(scene: &Scene, pack: &TexturePack) -> Result<()> {
     for object in &scene.objects {
-        let Shape::Plane { dir_u, dir_v, .. } = &object.shape else {
-            continue;
-        };
         let mapped = pack
             .material_maps
             .get(object.material)
             .is_some_and(|m| m.iter().any(|&i| i != layout::MAP_NONE));
-        if mapped && (dir_u.length() == 0.0 || dir_v.length() == 0.0) {
-            return Err(Error::Invalid(format!(
-                "{}: this plane's material has texture maps, so the plane needs non-zero \
-                 `dirU` and `dirV` (they set the texture's axes and tile size)",
-                object.location
-            )));
+        if !mapped {
+            continue;
+        }
+        match &object.shape {
+            Shape::Plane { dir_u, dir_v, .. } if dir_u.length() == 0.0 || dir_v.length() == 0.0 => {
+                return Err(Error::Invalid(format!(
+                    "{}: this plane's material has texture maps, so the plane needs non-zero \
+                     `dirU` and `dirV` (they set the texture's axes and tile size)",
+                    object.location
+                )));
+            }
+            Shape::Mesh { .. } => {
+                return Err(Error::Invalid(format!(
+                    "{}: this mesh's material has texture maps, but meshes carry no texture \
+                     coordinates in clpt (give it a material without `texture`)",
+                    object.location
+                )));
+            }
+            _ => {}
         }
     }
     Ok(())

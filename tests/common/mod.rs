@@ -85,7 +85,7 @@ use clpt::scene::CameraDesc;
 use clpt::scene::camera::CameraBasis;
 use glam::DVec3;
 
-/// A packed scene made in code (for probes), with a pinhole camera at `eye` looking down -z.
+/// A packed scene made in code (for probes), with a pinhole camera at the origin looking down -z.
 pub fn packed(spheres: Vec<Sphere>, planes: Vec<Plane>, materials: Vec<Material>) -> PackedScene {
     let camera = CameraBasis::new(&CameraDesc {
         center: DVec3::ZERO,
@@ -97,13 +97,7 @@ pub fn packed(spheres: Vec<Sphere>, planes: Vec<Plane>, materials: Vec<Material>
         aperture: 0.0,
     })
     .expect("camera");
-    PackedScene {
-        camera,
-        materials,
-        spheres,
-        planes,
-        textures: Default::default(),
-    }
+    PackedScene::from_parts(camera, materials, spheres, planes)
 }
 
 /// Runs a probe that takes the scene and rays of 9 floats (o, d, w) and writes `width` floats
@@ -121,17 +115,15 @@ pub fn probe_scene_rays(
     let input = buffer(device, &flat);
     let out = output::<f32>(device, rays.len() * width);
     let program = probes(device);
-    let kernel = ocl::Kernel::builder()
+    let mut builder = ocl::Kernel::builder();
+    builder
         .program(&program)
         .name(kernel_name)
-        .queue(device.queue.clone())
-        .arg(&buffers.params)
-        .arg(&buffers.spheres)
-        .arg(&buffers.planes)
-        .arg(&input)
-        .arg(&out)
-        .build()
-        .expect(kernel_name);
+        .queue(device.queue.clone());
+    for b in buffers.in_order() {
+        builder.arg(b);
+    }
+    let kernel = builder.arg(&input).arg(&out).build().expect(kernel_name);
     run(&kernel, rays.len());
     read(&out)
 }

@@ -1,0 +1,161 @@
+//! Closed triangle meshes made in code, with shared vertices: an icosphere, a torus and a
+//! (p, q) torus knot tube. The watertightness tests aim rays at their shared edges and vertices,
+//! and `examples/make_assets.rs` writes them to `assets/` as OBJ files.
+
+use super::mesh::TriangleMesh;
+use glam::DVec3;
+use std::collections::HashMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+fn mesh(name: &str, positions: Vec<DVec3>, triangles: Vec<[u32; 3]>) -> TriangleMesh {
+    TriangleMesh {
+        path: PathBuf::from(name),
+        positions: positions.iter().map(|p| p.as_vec3().to_array()).collect(),
+        normals: None,
+        triangles,
+        degenerate: 0,
+    }
+}
+
+/// A unit sphere from an icosahedron split `level` times (20 * 4^level triangles), outward
+/// (counter-clockwise) winding.
+pub fn icosphere(level: u32) -> TriangleMesh {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let mut positions: Vec<DVec3> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
+    .collect();
+    let mut triangles: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..level {
+        let mut midpoints: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut mid = |a: u32, b: u32, positions: &mut Vec<DVec3>| -> u32 {
+            let key = (a.min(b), a.max(b));
+            *midpoints.entry(key).or_insert_with(|| {
+                positions.push(((positions[a as usize] + positions[b as usize]) * 0.5).normalize());
+                positions.len() as u32 - 1
+            })
+        };
+        let mut next = Vec::with_capacity(triangles.len() * 4);
+        for [a, b, c] in triangles {
+            let ab = mid(a, b, &mut positions);
+            let bc = mid(b, c, &mut positions);
+            let ca = mid(c, a, &mut positions);
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        triangles = next;
+    }
+    mesh("icosphere", positions, triangles)
+}
+
+/// A closed tube of radius `tube` around a closed curve `center(s)`, s in [0, 1), with `rings`
+/// rings of `sides` vertices.
+fn tube(
+    name: &str,
+    center: impl Fn(f64) -> DVec3,
+    tube: f64,
+    rings: u32,
+    sides: u32,
+) -> TriangleMesh {
+    let mut positions = Vec::with_capacity((rings * sides) as usize);
+    // A rotation-minimising frame would be smoother; a frame from the curve's tangent and a
+    // fixed helper axis is enough for closed test shapes that never run along that axis.
+    for i in 0..rings {
+        let s = i as f64 / rings as f64;
+        let h = 1e-4;
+        let tangent = (center(s + h) - center(s - h)).normalize();
+        let helper = if tangent.z.abs() < 0.9 {
+            DVec3::Z
+        } else {
+            DVec3::X
+        };
+        let n = tangent.cross(helper).normalize();
+        let b = tangent.cross(n);
+        for j in 0..sides {
+            let a = std::f64::consts::TAU * j as f64 / sides as f64;
+            positions.push(center(s) + (n * a.cos() + b * a.sin()) * tube);
+        }
+    }
+    let mut triangles = Vec::with_capacity((2 * rings * sides) as usize);
+    let at = |i: u32, j: u32| (i % rings) * sides + (j % sides);
+    for i in 0..rings {
+        for j in 0..sides {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            triangles.push([a, b, c]);
+            triangles.push([a, c, d]);
+        }
+    }
+    mesh(name, positions, triangles)
+}
+
+/// A torus in the xz-plane: ring radius `major`, tube radius `minor`.
+pub fn torus(major: f64, minor: f64, rings: u32, sides: u32) -> TriangleMesh {
+    let circle = move |s: f64| {
+        let a = std::f64::consts::TAU * s;
+        DVec3::new(major * a.cos(), 0.0, major * a.sin())
+    };
+    tube("torus", circle, minor, rings, sides)
+}
+
+/// A (p, q) torus knot tube (p = 2, q = 3: the trefoil).
+pub fn torus_knot(p: u32, q: u32, tube_radius: f64, rings: u32, sides: u32) -> TriangleMesh {
+    let curve = move |s: f64| {
+        let a = std::f64::consts::TAU * s;
+        let r = 2.0 + (q as f64 * a).cos();
+        DVec3::new(
+            r * (p as f64 * a).cos(),
+            (q as f64 * a).sin(),
+            r * (p as f64 * a).sin(),
+        )
+    };
+    tube("torus_knot", curve, tube_radius, rings, sides)
+}
+
+/// Writes a mesh as an OBJ file (positions and faces, 1-based).
+pub fn write_obj(mesh: &TriangleMesh, path: &Path, comment: &str) -> std::io::Result<()> {
+    let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
+    for line in comment.lines() {
+        writeln!(out, "# {line}")?;
+    }
+    for p in &mesh.positions {
+        writeln!(out, "v {} {} {}", p[0], p[1], p[2])?;
+    }
+    for t in &mesh.triangles {
+        writeln!(out, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
+    }
+    out.flush()
+}

@@ -1,0 +1,686 @@
+//! Meshes and acceleration on the device: watertightness (1e6 rays aimed at shared edges and
+//! vertices of closed meshes never pass through), the kd-tree and BVH traversal against brute
+//! force in f64 (generated meshes; the Stanford dragon when ../shared/seed is there), transforms
+//! of spheres, planes and meshes against f64 for every op and compositions, instancing, and bad
+//! OBJ input.
+
+mod common;
+
+use clpt::device::upload::PackedScene;
+use clpt::scene::Scene;
+use clpt::scene::mesh::TriangleMesh;
+use clpt::scene::procedural;
+use glam::{DMat4, DVec3};
+use rand::rngs::SmallRng;
+use rand::{RngExt, SeedableRng};
+use std::path::{Path, PathBuf};
+
+const HIT_MESH: f32 = 3.0;
+
+fn temp_dir(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("clpt-mesh-{}-{test}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A scene file in `dir` with `objects` in its group (one grey material).
+fn scene_in(dir: &Path, objects: &str) -> Scene {
+    let text = format!(
+        "PerspectiveCamera {{ center 0 0 10 direction 0 0 -1 angle 30 width 8 height 8 }}\n\
+         Materials {{ numMaterials 1 Material {{ color 0.5 0.5 0.5 }} }}\n\
+         Group {{ numObjects 1 {objects} }}\n"
+    );
+    let path = dir.join("scene.txt");
+    std::fs::write(&path, text).unwrap();
+    Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn pack(scene: &Scene) -> PackedScene {
+    PackedScene::new(scene, u64::MAX).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn ray(o: DVec3, d: DVec3) -> [f32; 9] {
+    let (o, d) = (o.as_vec3().to_array(), d.normalize().as_vec3().to_array());
+    [o[0], o[1], o[2], d[0], d[1], d[2], 0.0, 0.0, 1.0]
+}
+
+fn parts(r: &[f32; 9]) -> (DVec3, DVec3) {
+    let v = |i: usize| DVec3::new(r[i] as f64, r[i + 1] as f64, r[i + 2] as f64);
+    (v(0), v(3))
+}
+
+fn vertex(mesh: &TriangleMesh, i: u32) -> DVec3 {
+    DVec3::from(mesh.positions[i as usize].map(f64::from))
+}
+
+/// Möller–Trumbore in f64: (t, u, v) of the ray's line with the triangle's plane, `None` when
+/// parallel; u, v are the weights of the second and third vertex (outside [0, 1] = miss).
+fn moller_trumbore(o: DVec3, d: DVec3, a: DVec3, b: DVec3, c: DVec3) -> Option<(f64, f64, f64)> {
+    let (e1, e2) = (b - a, c - a);
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 {
+        return None;
+    }
+    let s = o - a;
+    let u = s.dot(p) / det;
+    let q = s.cross(e1);
+    let v = d.dot(q) / det;
+    Some((e2.dot(q) / det, u, v))
+}
+
+/// How far inside its triangle a (u, v) point lies: > 0 inside, < 0 outside, 0 on an edge.
+fn inside_margin(u: f64, v: f64) -> f64 {
+    u.min(v).min(1.0 - u - v)
+}
+
+/// The nearest hit by brute force: (t, triangle, u, v).
+fn brute_force(mesh: &TriangleMesh, o: DVec3, d: DVec3) -> Option<(f64, u32, f64, f64)> {
+    let mut best: Option<(f64, u32, f64, f64)> = None;
+    for (i, t) in mesh.triangles.iter().enumerate() {
+        if let Some((th, u, v)) = moller_trumbore(
+            o,
+            d,
+            vertex(mesh, t[0]),
+            vertex(mesh, t[1]),
+            vertex(mesh, t[2]),
+        ) {
+            if inside_margin(u, v) >= 0.0 && th > 0.0 && best.is_none_or(|b| th < b.0) {
+                best = Some((th, i as u32, u, v));
+            }
+        }
+    }
+    best
+}
+
+/// Compares device hits with the f64 nearest hit. A disagreement is allowed only where the f64
+/// answer itself is within `edge` (barycentric) of an edge: there the f32 ray may fall on either
+/// side, and either answer is right.
+fn check_against(
+    mesh: &TriangleMesh,
+    rays: &[[f32; 9]],
+    got: &[[f32; 16]],
+    want: impl Fn(DVec3, DVec3) -> Option<(f64, u32, f64, f64)>,
+    what: &str,
+) -> usize {
+    let edge = 1e-4;
+    let mut compared = 0;
+    for (r, g) in rays.iter().zip(got) {
+        let (o, d) = parts(r);
+        let w = want(o, d);
+        let device = (g[1] == HIT_MESH).then(|| (g[0] as f64, g[13]));
+        let device_tri = g[2];
+        let _ = device_tri;
+        match (w, device) {
+            (Some((t, _, u, v)), Some((tg, _))) => {
+                compared += 1;
+                if (tg - t).abs() > 1e-4 * t + 1e-5 {
+                    // A different surface: only if the f64 hit grazes an edge.
+                    assert!(
+                        inside_margin(u, v) < edge,
+                        "{what}: t {tg} vs f64 {t} (o {o}, d {d})"
+                    );
+                }
+            }
+            (Some((t, _, u, v)), None) => {
+                assert!(
+                    inside_margin(u, v) < edge,
+                    "{what}: device missed, f64 hit at t {t} (o {o}, d {d})"
+                );
+            }
+            (None, Some((tg, _))) => {
+                // The f64 ray must pass within `edge` of some triangle near the device's t.
+                let near_edge = mesh.triangles.iter().any(|t| {
+                    moller_trumbore(
+                        o,
+                        d,
+                        vertex(mesh, t[0]),
+                        vertex(mesh, t[1]),
+                        vertex(mesh, t[2]),
+                    )
+                    .is_some_and(|(th, u, v)| {
+                        (th - tg).abs() <= 1e-4 * th + 1e-5 && inside_margin(u, v) > -edge
+                    })
+                });
+                assert!(
+                    near_edge,
+                    "{what}: device hit at t {tg}, f64 missed (o {o}, d {d})"
+                );
+            }
+            (None, None) => {}
+        }
+    }
+    compared
+}
+
+fn write_mesh(dir: &Path, name: &str, mesh: &TriangleMesh) -> PathBuf {
+    let path = dir.join(name);
+    procedural::write_obj(mesh, &path, "test mesh").unwrap();
+    path
+}
+
+#[test]
+fn rays_at_shared_edges_and_vertices_never_pass_through() {
+    let dir = temp_dir("watertight");
+    let device = common::device();
+    let mut rng = SmallRng::seed_from_u64(41);
+    for (name, mesh) in [
+        ("icosphere.obj", procedural::icosphere(4)),
+        ("torus.obj", procedural::torus(1.0, 0.35, 96, 48)),
+    ] {
+        write_mesh(&dir, name, &mesh);
+        // Reload as the renderer does (f32 positions from the OBJ text).
+        let scene = scene_in(&dir, &format!("Mesh {{ obj_file {name} }}"));
+        let packed = pack(&scene);
+        let loaded = TriangleMesh::load(&dir.join(name)).unwrap();
+        // Which triangles meet at each edge and each vertex.
+        let mut at_edge: std::collections::HashMap<(u32, u32), Vec<usize>> = Default::default();
+        let mut at_vertex: Vec<Vec<usize>> = vec![Vec::new(); loaded.positions.len()];
+        for (i, t) in loaded.triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                at_edge.entry((a.min(b), a.max(b))).or_default().push(i);
+                at_vertex[a as usize].push(i);
+            }
+        }
+        let normal = |i: usize| {
+            let t = loaded.triangles[i];
+            let (a, b, c) = (
+                vertex(&loaded, t[0]),
+                vertex(&loaded, t[1]),
+                vertex(&loaded, t[2]),
+            );
+            (b - a).cross(c - a).normalize()
+        };
+        let mut passed_through = 0;
+        for _ in 0..5 {
+            let mut rays = Vec::with_capacity(100_000);
+            let mut dists = Vec::with_capacity(100_000);
+            while rays.len() < 100_000 {
+                let t = loaded.triangles[rng.random_range(0..loaded.triangles.len())];
+                let k = rng.random_range(0..3);
+                let (ia, ib) = (t[k], t[(k + 1) % 3]);
+                let (a, b) = (vertex(&loaded, ia), vertex(&loaded, ib));
+                // A point on a shared edge, a third of the time exactly a vertex.
+                let at_a = rng.random_range(0..3) == 0;
+                let s = if at_a { 0.0 } else { rng.random::<f64>() };
+                let p = a + (b - a) * s;
+                let meeting = if at_a {
+                    &at_vertex[ia as usize]
+                } else {
+                    &at_edge[&(ia.min(ib), ia.max(ib))]
+                };
+                let n: DVec3 = meeting
+                    .iter()
+                    .map(|&i| normal(i))
+                    .sum::<DVec3>()
+                    .normalize();
+                // From outside every triangle meeting there (not grazing any of them), so the
+                // ray truly crosses the surface at p.
+                let dir_out = (n + common::random_unit(&mut rng) * 0.8).normalize();
+                if meeting.iter().any(|&i| dir_out.dot(normal(i)) <= 0.2) {
+                    continue;
+                }
+                let dist = rng.random_range(0.05..2.0);
+                let o = p + dir_out * dist;
+                rays.push(ray(o, p - o));
+                dists.push(dist);
+            }
+            let got = common::probe_hits(&device, &packed, &rays);
+            for (g, dist) in got.iter().zip(&dists) {
+                // Something of the mesh must be hit no later than the aimed-at point.
+                if g[1] != HIT_MESH || g[0] as f64 > dist * (1.0 + 1e-4) + 1e-5 {
+                    if passed_through < 5 {
+                        eprintln!("{name}: kind {} t {} want <= {dist}", g[1], g[0]);
+                    }
+                    passed_through += 1;
+                }
+            }
+        }
+        assert_eq!(
+            passed_through, 0,
+            "{name}: {passed_through} of 500000 rays passed through"
+        );
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn kdtree_traversal_matches_brute_force_on_generated_meshes() {
+    let dir = temp_dir("brute");
+    let device = common::device();
+    let mut rng = SmallRng::seed_from_u64(42);
+    for (name, mesh) in [
+        ("ico.obj", procedural::icosphere(3)),
+        ("torus.obj", procedural::torus(1.0, 0.3, 48, 24)),
+        ("knot.obj", procedural::torus_knot(2, 3, 0.35, 160, 16)),
+    ] {
+        write_mesh(&dir, name, &mesh);
+        let loaded = TriangleMesh::load(&dir.join(name)).unwrap();
+        let scene = scene_in(&dir, &format!("Mesh {{ obj_file {name} }}"));
+        let packed = pack(&scene);
+        let bounds = clpt::accel::aabb::Aabb::from_points(
+            loaded
+                .positions
+                .iter()
+                .map(|p| DVec3::from(p.map(f64::from))),
+        );
+        let c = bounds.center();
+        let size = bounds.extent().length();
+        let rays: Vec<[f32; 9]> = (0..20_000)
+            .map(|i| {
+                let o = if i % 5 == 0 {
+                    c + common::random_unit(&mut rng) * size * 0.2
+                } else {
+                    c + common::random_unit(&mut rng) * size * rng.random_range(0.6..2.0)
+                };
+                let target = c + common::random_unit(&mut rng) * size * rng.random_range(0.0..0.6);
+                ray(o, target - o)
+            })
+            .collect();
+        let got = common::probe_hits(&device, &packed, &rays);
+        let compared = check_against(
+            &loaded,
+            &rays,
+            &got,
+            |o, d| brute_force(&loaded, o, d),
+            name,
+        );
+        assert!(compared > 5_000, "{name}: only {compared} hits compared");
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn dragon_traversal_matches_host_tree_and_brute_force() {
+    let Some(seed) = common::seed_dir("dragon_traversal_matches_host_tree_and_brute_force") else {
+        return;
+    };
+    let path = seed.join("mesh/dragon_100k.obj");
+    let device = common::device();
+    let mut rng = SmallRng::seed_from_u64(43);
+    let dir = temp_dir("dragon");
+    let scene = scene_in(&dir, &format!("Mesh {{ obj_file {} }}", path.display()));
+    let packed = pack(&scene);
+    let mesh = TriangleMesh::load(&path).unwrap();
+    let tree =
+        clpt::accel::kdtree::KdTree::build(&mesh.positions, &mesh.triangles, &Default::default());
+    let rays: Vec<[f32; 9]> = (0..100_000)
+        .map(|_| {
+            let o = common::random_unit(&mut rng) * rng.random_range(1.5..4.0);
+            let target = common::random_unit(&mut rng) * rng.random_range(0.0..0.8);
+            ray(o, target - o)
+        })
+        .collect();
+    let got = common::probe_hits(&device, &packed, &rays);
+    let host = |o: DVec3, d: DVec3| {
+        tree.intersect(&mesh.positions, &mesh.triangles, o, d, 0.0, f64::INFINITY)
+            .map(|(t, tri)| {
+                let tv = mesh.triangles[tri as usize];
+                let (_, u, v) = moller_trumbore(
+                    o,
+                    d,
+                    vertex(&mesh, tv[0]),
+                    vertex(&mesh, tv[1]),
+                    vertex(&mesh, tv[2]),
+                )
+                .unwrap_or((t, 0.5, 0.25));
+                (t, tri, u, v)
+            })
+    };
+    let compared = check_against(&mesh, &rays[..], &got, host, "dragon vs host kd-tree");
+    assert!(compared > 30_000, "only {compared} dragon hits compared");
+    let brute = check_against(
+        &mesh,
+        &rays[..300],
+        &got[..300],
+        |o, d| brute_force(&mesh, o, d),
+        "dragon vs brute force",
+    );
+    assert!(brute > 60, "only {brute} brute-force hits compared");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// The course framework's composition, written out independently of the parser: each op
+/// multiplies on the right, `Matrix4f` (column by column) on the left.
+fn compose(ops: &[(&str, &[f64])]) -> DMat4 {
+    let mut m = DMat4::IDENTITY;
+    for (op, v) in ops {
+        let v3 = || DVec3::new(v[0], v[1], v[2]);
+        match *op {
+            "Scale" => m *= DMat4::from_scale(v3()),
+            "UniformScale" => m *= DMat4::from_scale(DVec3::splat(v[0])),
+            "Translate" => m *= DMat4::from_translation(v3()),
+            "XRotate" => m *= DMat4::from_rotation_x(v[0].to_radians()),
+            "YRotate" => m *= DMat4::from_rotation_y(v[0].to_radians()),
+            "ZRotate" => m *= DMat4::from_rotation_z(v[0].to_radians()),
+            "Rotate" => m *= DMat4::from_axis_angle(v3().normalize(), v[3].to_radians()),
+            "Matrix4f" => m = DMat4::from_cols_slice(v) * m,
+            _ => unreachable!(),
+        }
+    }
+    m
+}
+
+fn op_text(ops: &[(&str, &[f64])]) -> String {
+    ops.iter()
+        .map(|(op, v)| {
+            let nums = v
+                .iter()
+                .map(|x| x.to_string())
+                .collect::<Vec<_>>()
+                .join(" ");
+            match *op {
+                "Rotate" | "Matrix4f" => format!("{op} {{ {nums} }}"),
+                _ => format!("{op} {nums}"),
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+const MATRIX: [f64; 16] = [
+    1.0, 0.2, 0.0, 0.0, 0.0, 2.0, 0.1, 0.0, 0.3, 0.0, 1.0, 0.0, 1.0, 2.0, 3.0, 1.0,
+];
+
+fn transform_cases() -> Vec<Vec<(&'static str, &'static [f64])>> {
+    vec![
+        vec![("Scale", &[2.0, 0.5, 1.5])],
+        vec![("UniformScale", &[3.0])],
+        vec![("Translate", &[1.0, -2.0, 3.0])],
+        vec![("XRotate", &[30.0])],
+        vec![("YRotate", &[-45.0])],
+        vec![("ZRotate", &[90.0])],
+        vec![("Rotate", &[1.0, 1.0, 0.0, 60.0])],
+        vec![("Matrix4f", &MATRIX)],
+        // case3's goblet and default-bak's surface, and a mix with a matrix in the middle.
+        vec![
+            ("Translate", &[0.0, 20.0, 90.0]),
+            ("Scale", &[10.0, 10.0, 10.0]),
+        ],
+        vec![
+            ("Scale", &[5.0, 5.0, 5.0]),
+            ("Translate", &[0.0, 10.0, 0.0]),
+            ("ZRotate", &[90.0]),
+        ],
+        vec![
+            ("XRotate", &[20.0]),
+            ("Matrix4f", &MATRIX),
+            ("Translate", &[1.0, 1.0, 1.0]),
+            ("Scale", &[1.0, 3.0, 0.5]),
+        ],
+    ]
+}
+
+#[test]
+fn transformed_spheres_planes_and_meshes_match_f64() {
+    let dir = temp_dir("transforms");
+    write_mesh(&dir, "ico.obj", &procedural::icosphere(2));
+    let ico = TriangleMesh::load(&dir.join("ico.obj")).unwrap();
+    let device = common::device();
+    let mut rng = SmallRng::seed_from_u64(44);
+    let sphere = clpt::device::layout::Sphere {
+        center: [0.3, 0.1, -0.2],
+        radius: 1.0,
+        ..Default::default()
+    };
+    for ops in transform_cases() {
+        let m = compose(&ops);
+        let inv = m.inverse();
+        for (object, kind) in [
+            ("Sphere { center 0.3 0.1 -0.2 radius 1 }", 1.0f32),
+            ("Plane { normal 0 0 1 offset 0.25 range 2 }", 2.0),
+            ("Mesh { obj_file ico.obj }", 3.0),
+        ] {
+            let scene = scene_in(&dir, &format!("Transform {{ {} {object} }}", op_text(&ops)));
+            let packed = pack(&scene);
+            let world = packed.object_boxes[0];
+            let (c, size) = (world.center(), world.extent().length());
+            let rays: Vec<[f32; 9]> = (0..4000)
+                .map(|_| {
+                    let o = c + common::random_unit(&mut rng) * size * 1.5;
+                    let target = c + common::random_unit(&mut rng) * size * 0.2;
+                    ray(o, target - o)
+                })
+                .collect();
+            let got = common::probe_hits(&device, &packed, &rays);
+            let mut hits = 0;
+            for (r, g) in rays.iter().zip(&got) {
+                let (o, d) = parts(r);
+                let (lo, ld) = (inv.transform_point3(o), inv.transform_vector3(d));
+                // The reference in object space: t is the same along both rays.
+                let want: Option<(f64, DVec3)> = match kind as u32 {
+                    1 => common::reference::sphere_roots(&sphere, lo, ld.normalize()).and_then(
+                        |(t0, t1)| {
+                            let len = ld.length();
+                            [t0, t1].into_iter().find(|&t| t > 0.0).map(|t| {
+                                (t / len, lo + ld * (t / len) - DVec3::new(0.3, 0.1, -0.2))
+                            })
+                        },
+                    ),
+                    2 => {
+                        let plane = clpt::device::layout::Plane {
+                            offset: 0.25,
+                            range: 2.0,
+                            ..Default::default()
+                        };
+                        common::reference::plane_hit(&plane, lo, ld, f64::INFINITY)
+                            .map(|t| (t, DVec3::Z))
+                    }
+                    _ => brute_force(&ico, lo, ld).map(|(t, tri, _, _)| {
+                        let tv = ico.triangles[tri as usize];
+                        let (a, b, cc) = (
+                            vertex(&ico, tv[0]),
+                            vertex(&ico, tv[1]),
+                            vertex(&ico, tv[2]),
+                        );
+                        (t, (b - a).cross(cc - a))
+                    }),
+                };
+                let device_hit = (g[1] == kind).then(|| g[0] as f64);
+                let Some((t, n_obj)) = want else {
+                    // Rays that just miss may graze: only a clear device hit far inside is wrong.
+                    continue;
+                };
+                let Some(tg) = device_hit else {
+                    // A device miss next to an f64 hit: only at a silhouette.
+                    let p = inv.transform_point3(o + d * t);
+                    let grazing = match kind as u32 {
+                        1 => {
+                            ((p - DVec3::new(0.3, 0.1, -0.2))
+                                .normalize()
+                                .dot(ld.normalize()))
+                            .abs()
+                                < 1e-2
+                        }
+                        2 => {
+                            (p.x.abs().max(p.y.abs()) - 2.0).abs() < 1e-3
+                                || ld.normalize().z.abs() < 1e-3
+                        }
+                        _ => true,
+                    };
+                    assert!(
+                        grazing,
+                        "{} {object}: device missed an f64 hit at t {t}",
+                        op_text(&ops)
+                    );
+                    continue;
+                };
+                hits += 1;
+                assert!(
+                    (tg - t).abs() <= 1e-4 * t + 1e-4,
+                    "{} {object}: t {tg} vs {t}",
+                    op_text(&ops)
+                );
+                let p = DVec3::new(g[3] as f64, g[4] as f64, g[5] as f64);
+                assert!(
+                    (p - (o + d * t)).length() <= 1e-4 * (1.0 + (o + d * t).length()),
+                    "{} {object}: point {p}",
+                    op_text(&ops)
+                );
+                let n_world = inv.transpose().transform_vector3(n_obj).normalize();
+                let n = DVec3::new(g[6] as f64, g[7] as f64, g[8] as f64);
+                if kind as u32 != 3 {
+                    assert!(
+                        (n - n_world).length() < 1e-3,
+                        "{} {object}: normal {n} vs {n_world}",
+                        op_text(&ops)
+                    );
+                } else {
+                    assert!(
+                        n.dot(n_world).abs() > 0.999,
+                        "{} {object}: normal {n} vs {n_world}",
+                        op_text(&ops)
+                    );
+                }
+            }
+            // A one-sided plane is hit by the rays from its front only.
+            let enough = if kind == 2.0 { 100 } else { 500 };
+            assert!(
+                hits > enough,
+                "{} {object}: only {hits} hits",
+                op_text(&ops)
+            );
+        }
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn the_parser_composes_like_the_course_framework() {
+    let dir = temp_dir("compose");
+    for ops in transform_cases() {
+        let scene = scene_in(
+            &dir,
+            &format!(
+                "Transform {{ {} Sphere {{ center 0 0 0 radius 1 }} }}",
+                op_text(&ops)
+            ),
+        );
+        let got = scene.objects[0].transform.expect("a transform");
+        let want = compose(&ops);
+        assert!(
+            got.abs_diff_eq(want, 1e-12),
+            "{}: {got} vs {want}",
+            op_text(&ops)
+        );
+    }
+    // Nested transforms compose outer * inner.
+    let scene = scene_in(
+        &dir,
+        "Transform { Translate 1 0 0 Transform { Scale 2 2 2 Sphere { center 0 0 0 radius 1 } } }",
+    );
+    let want = DMat4::from_translation(DVec3::X) * DMat4::from_scale(DVec3::splat(2.0));
+    assert!(scene.objects[0].transform.unwrap().abs_diff_eq(want, 1e-12));
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn bad_meshes_and_transforms_are_clear_errors() {
+    let dir = temp_dir("bad");
+    let load = |name: &str, text: &str| {
+        std::fs::write(dir.join(name), text).unwrap();
+        TriangleMesh::load(&dir.join(name))
+    };
+    let err = load("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("range.obj"), "{err}");
+    let err = load("nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("nan.obj") && err.contains("not a finite number"),
+        "{err}"
+    );
+    let err = load("inf.obj", "v 0 0 0\nv inf 0 0\nv 0 1 0\nf 1 2 3\n")
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("inf.obj"), "{err}");
+    let err = load("empty.obj", "# nothing\n").unwrap_err().to_string();
+    assert!(
+        err.contains("empty.obj") && err.contains("no triangles"),
+        "{err}"
+    );
+    let err = load("flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\nf 1 1 2\n")
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("2 degenerate"), "{err}");
+    let mesh = load(
+        "some.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n",
+    )
+    .unwrap();
+    assert_eq!((mesh.triangles.len(), mesh.degenerate), (1, 1));
+    // Missing files list where they were looked for.
+    let path = dir.join("scene.txt");
+    std::fs::write(&path, "PerspectiveCamera { center 0 0 10 direction 0 0 -1 angle 30 width 8 height 8 }\nMaterials { numMaterials 1 Material { } }\nGroup { numObjects 1 Mesh { obj_file nowhere.obj } }\n").unwrap();
+    let scene = Scene::load(&path).unwrap();
+    let err = PackedScene::new(&scene, u64::MAX).unwrap_err().to_string();
+    assert!(
+        err.contains("scene.txt:3:22") && err.contains("mesh file `nowhere.obj` not found"),
+        "{err}"
+    );
+    // Transform errors: singular, no object, two objects, unknown op.
+    for (text, fragment) in [
+        (
+            "Transform { Scale 1 0 1 Sphere { center 0 0 0 radius 1 } }",
+            "singular",
+        ),
+        ("Transform { Translate 1 2 3 }", "without an object"),
+        (
+            "Transform { Sphere { center 0 0 0 radius 1 } Sphere { center 0 0 0 radius 1 } }",
+            "one object",
+        ),
+        (
+            "Transform { Shear 1 Sphere { center 0 0 0 radius 1 } }",
+            "Shear",
+        ),
+        (
+            "Transform { Rotate { 0 0 0 30 } Sphere { center 0 0 0 radius 1 } }",
+            "Rotate",
+        ),
+    ] {
+        let full = format!(
+            "PerspectiveCamera {{ center 0 0 10 direction 0 0 -1 angle 30 width 8 height 8 }}\nMaterials {{ numMaterials 1 Material {{ }} }}\nGroup {{ numObjects 1 {text} }}\n"
+        );
+        let err = clpt::scene::parse::parse_scene(&full, "t.txt")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("t.txt:3:") && err.contains(fragment),
+            "{text}: {err}"
+        );
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn case1_loads_its_dragon_once_and_renders_small() {
+    let Some(seed) = common::seed_dir("case1_loads_its_dragon_once_and_renders_small") else {
+        return;
+    };
+    let mut scene = Scene::load(&seed.join("testcases/case1_dof_mesh.txt")).unwrap();
+    scene.camera.width = 48;
+    scene.camera.height = 27;
+    let device = common::device();
+    let options = clpt::render::RenderOptions {
+        spp: Some(4),
+        ..Default::default()
+    };
+    let mut renderer = clpt::render::Renderer::new(
+        &device,
+        &scene,
+        &clpt::device::program::KernelSources::Embedded,
+        options,
+    )
+    .unwrap();
+    let info = &renderer.packed.mesh_info;
+    assert_eq!(info.len(), 1, "dragon_100k.obj loaded {} times", info.len());
+    assert_eq!(info[0].instances, 3);
+    let film = renderer.render(&mut |_| {}).unwrap().0;
+    assert!(
+        film.sum.iter().flatten().all(|v| v.is_finite()),
+        "NaN or Inf in case1"
+    );
+}
