@@ -16,6 +16,16 @@
 #include "triangle.h"
 #include "kdtree.h"
 
+/* Program switches (set by the host from the scene, src/device/program.rs): CLPT_MESHES 0
+ * leaves out the mesh, kd-tree and triangle code; CLPT_BVH 0 tests objects in a loop instead
+ * of traversing the BVH. */
+#ifndef CLPT_MESHES
+#define CLPT_MESHES 1
+#endif
+#ifndef CLPT_BVH
+#define CLPT_BVH 1
+#endif
+
 #define HIT_NONE 0u
 #define HIT_SPHERE 1u
 #define HIT_PLANE 2u
@@ -76,41 +86,75 @@ typedef struct Surface {
     uint transform;
 } Surface;
 
-inline void object_intersect(const Scene* sc, ObjectRef ref, float3 o, float3 d, Hit* hit) {
-    if (ref.kind == OBJECT_MESH) {
-        __global const MeshInstance* inst = &sc->mesh_instances[ref.index];
-        float3 lo = o, ld = d;
-        if (inst->transform != TRANSFORM_NONE) {
-            __global const float* inv = sc->transforms[inst->transform].inv;
-            lo = xform_point(inv, o);
-            ld = xform_vector(inv, d);
-        }
-        if (kdtree_intersect(&sc->meshes[inst->mesh], sc->kd_nodes, sc->kd_indices,
-                             sc->triangles, sc->vertices, lo, ld, &hit->t, &hit->prim, &hit->b1,
-                             &hit->b2)) {
-            hit->kind = HIT_MESH;
-            hit->index = ref.index;
-        }
-        return;
-    }
-    const uint transform = ref.kind == OBJECT_SPHERE ? sc->spheres[ref.index].transform
-                                                     : sc->planes[ref.index].transform;
+#if CLPT_MESHES
+inline void mesh_object_intersect(const Scene* sc, uint index, float3 o, float3 d, Hit* hit) {
+    __global const MeshInstance* inst = &sc->mesh_instances[index];
     float3 lo = o, ld = d;
-    float scale = 1.0f; /* object-space length of the unit world direction */
-    if (transform != TRANSFORM_NONE) {
-        __global const float* inv = sc->transforms[transform].inv;
+    if (inst->transform != TRANSFORM_NONE) {
+        __global const float* inv = sc->transforms[inst->transform].inv;
         lo = xform_point(inv, o);
         ld = xform_vector(inv, d);
-        scale = length(ld);
-        ld /= scale;
     }
+    if (kdtree_intersect(&sc->meshes[inst->mesh], sc->kd_nodes, sc->kd_indices, sc->triangles,
+                         sc->vertices, lo, ld, &hit->t, &hit->prim, &hit->b1, &hit->b2)) {
+        hit->kind = HIT_MESH;
+        hit->index = index;
+    }
+}
+#endif
+
+/* The ray in a sphere's or plane's own space, with a unit direction: `scale` is the length
+ * of the world's unit direction there, so object-space t = world t * scale. */
+inline void to_object_space(const Scene* sc, uint transform, float3* o, float3* d,
+                            float* scale) {
+    *scale = 1.0f;
+    if (transform != TRANSFORM_NONE) {
+        __global const float* inv = sc->transforms[transform].inv;
+        *o = xform_point(inv, *o);
+        *d = xform_vector(inv, *d);
+        *scale = length(*d);
+        *d /= *scale;
+    }
+}
+
+inline void sphere_object_intersect(const Scene* sc, uint index, float3 o, float3 d, Hit* hit) {
+    __global const Sphere* s = &sc->spheres[index];
+    float scale;
+    to_object_space(sc, s->transform, &o, &d, &scale);
     const float t_max = hit->t * scale;
-    const float t = ref.kind == OBJECT_SPHERE ? sphere_intersect(&sc->spheres[ref.index], lo, ld, t_max)
-                                              : plane_intersect(&sc->planes[ref.index], lo, ld, t_max);
+    const float t = sphere_intersect(s, o, d, t_max);
     if (t < t_max) {
         hit->t = t / scale;
-        hit->kind = ref.kind == OBJECT_SPHERE ? HIT_SPHERE : HIT_PLANE;
-        hit->index = ref.index;
+        hit->kind = HIT_SPHERE;
+        hit->index = index;
+    }
+}
+
+inline void plane_object_intersect(const Scene* sc, uint index, float3 o, float3 d, Hit* hit) {
+    __global const Plane* p = &sc->planes[index];
+    float scale;
+    to_object_space(sc, p->transform, &o, &d, &scale);
+    const float t_max = hit->t * scale;
+    const float t = plane_intersect(p, o, d, t_max);
+    if (t < t_max) {
+        hit->t = t / scale;
+        hit->kind = HIT_PLANE;
+        hit->index = index;
+    }
+}
+
+/* A BVH leaf's object, whatever its kind. */
+inline void object_intersect(const Scene* sc, ObjectRef ref, float3 o, float3 d, Hit* hit) {
+#if CLPT_MESHES
+    if (ref.kind == OBJECT_MESH) {
+        mesh_object_intersect(sc, ref.index, o, d, hit);
+        return;
+    }
+#endif
+    if (ref.kind == OBJECT_SPHERE) {
+        sphere_object_intersect(sc, ref.index, o, d, hit);
+    } else {
+        plane_object_intersect(sc, ref.index, o, d, hit);
     }
 }
 
@@ -124,7 +168,22 @@ inline Hit scene_intersect(const Scene* sc, float3 o, float3 d) {
     hit.prim = 0u;
     hit.b1 = 0.0f;
     hit.b2 = 0.0f;
+#if CLPT_BVH
     bvh_intersect(sc, o, d, &hit);
+#else
+    /* Kind by kind, so all work-items run the same code at the same time. */
+    for (uint i = 0u; i < sc->params->num_spheres; ++i) {
+        sphere_object_intersect(sc, i, o, d, &hit);
+    }
+    for (uint i = 0u; i < sc->params->num_planes; ++i) {
+        plane_object_intersect(sc, i, o, d, &hit);
+    }
+#if CLPT_MESHES
+    for (uint i = 0u; i < sc->params->num_mesh_instances; ++i) {
+        mesh_object_intersect(sc, i, o, d, &hit);
+    }
+#endif
+#endif
     return hit;
 }
 
@@ -157,22 +216,20 @@ inline Surface scene_surface(const Scene* sc, Hit hit, float3 o, float3 d) {
     uint transform;
     float3 lo = o, ld = d;
     float t = hit.t;
+#if CLPT_MESHES
     if (hit.kind == HIT_MESH) {
         __global const MeshInstance* inst = &sc->mesh_instances[hit.index];
         transform = inst->transform;
         s.material = inst->material;
         mesh_surface(sc, &sc->meshes[inst->mesh], hit, &s.p, &s.p_error, &s.n, &s.ns);
-    } else {
+    } else
+#endif
+    {
         transform = hit.kind == HIT_SPHERE ? sc->spheres[hit.index].transform
                                            : sc->planes[hit.index].transform;
-        if (transform != TRANSFORM_NONE) {
-            __global const float* inv = sc->transforms[transform].inv;
-            lo = xform_point(inv, o);
-            ld = xform_vector(inv, d);
-            const float scale = length(ld);
-            ld /= scale;
-            t *= scale;
-        }
+        float scale;
+        to_object_space(sc, transform, &lo, &ld, &scale);
+        t *= scale;
         if (hit.kind == HIT_SPHERE) {
             sphere_surface(&sc->spheres[hit.index], lo, ld, t, &s.p, &s.n, &s.p_error);
             s.material = sc->spheres[hit.index].material;

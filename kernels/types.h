@@ -161,6 +161,9 @@ CLPT_ASSERT_SIZE(ObjectRef, 8);
 /* Everything a render launch needs besides the object arrays, uploaded once per render. */
 typedef struct RenderParams {
     Camera camera;
+    uint num_spheres;
+    uint num_planes;
+    uint num_mesh_instances;
     uint num_objects;      /* ObjectRef entries; [first_unbounded, num_objects) are outside the BVH */
     uint first_unbounded;
     uint num_bvh_nodes;
@@ -170,6 +173,6 @@ typedef struct RenderParams {
     uint rr_depth;         /* Russian roulette starts at this depth */
     uint texture_filter;   /* FILTER_* */
 } RenderParams;
-CLPT_ASSERT_SIZE(RenderParams, 120);
+CLPT_ASSERT_SIZE(RenderParams, 132);
 
 #endif

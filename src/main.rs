@@ -4,7 +4,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use clpt::device::{self, program::KernelSources};
 use clpt::render::bench::{BenchResult, bench_scene};
-use clpt::render::{Progress, RenderOptions, Renderer, TextureFilter};
+use clpt::render::{ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter};
 use clpt::scene::{Scene, builtin};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -82,6 +82,9 @@ struct SamplingArgs {
     /// Largest texture image accepted, in pixels.
     #[arg(long, default_value_t = clpt::scene::texture::DEFAULT_MAX_PIXELS)]
     max_texture_pixels: u64,
+    /// Object BVH: auto (from 32 objects on), on, or off (test every object in turn).
+    #[arg(long, default_value = "auto")]
+    object_bvh: ObjectBvh,
 }
 
 #[derive(Args)]
@@ -160,6 +163,7 @@ fn options(sampling: &SamplingArgs, spp: Option<u32>, time: Option<f64>) -> Resu
         rr_depth: sampling.rr_depth,
         texture_filter: sampling.texture_filter,
         max_texture_pixels: sampling.max_texture_pixels,
+        object_bvh: sampling.object_bvh,
         ..RenderOptions::default()
     })
 }

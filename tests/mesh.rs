@@ -78,16 +78,19 @@ fn inside_margin(u: f64, v: f64) -> f64 {
 fn brute_force(mesh: &TriangleMesh, o: DVec3, d: DVec3) -> Option<(f64, u32, f64, f64)> {
     let mut best: Option<(f64, u32, f64, f64)> = None;
     for (i, t) in mesh.triangles.iter().enumerate() {
-        if let Some((th, u, v)) = moller_trumbore(
+        let hit = moller_trumbore(
             o,
             d,
             vertex(mesh, t[0]),
             vertex(mesh, t[1]),
             vertex(mesh, t[2]),
-        ) {
-            if inside_margin(u, v) >= 0.0 && th > 0.0 && best.is_none_or(|b| th < b.0) {
-                best = Some((th, i as u32, u, v));
-            }
+        );
+        if let Some((th, u, v)) = hit
+            && inside_margin(u, v) >= 0.0
+            && th > 0.0
+            && best.is_none_or(|b| th < b.0)
+        {
+            best = Some((th, i as u32, u, v));
         }
     }
     best

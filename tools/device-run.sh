@@ -17,17 +17,18 @@ seed=seed/testcases
 } > $OUT/info.txt 2>&1; cat $OUT/info.txt
 export CLPT_DEVICE=NVIDIA
 {
-  echo "## H200, cold build (CUDA_CACHE_DISABLE=1), 1024 spp"
-  CUDA_CACHE_DISABLE=1 ./clpt bench scenes/smallpt.txt $seed/case2_softshadows_colorbleeding.txt $seed/case5_light_balls.txt $seed/case0_texture.txt scenes/textures.txt --spp 1024
-  echo "## H200, warm, 4096 spp"
-  ./clpt bench scenes/smallpt.txt $seed/case2_softshadows_colorbleeding.txt $seed/case5_light_balls.txt $seed/case0_texture.txt scenes/textures.txt --spp 4096
+  echo "## H200, cold build (CUDA_CACHE_DISABLE=1), 256 spp"
+  CUDA_CACHE_DISABLE=1 ./clpt bench scenes/smallpt.txt $seed/case2_softshadows_colorbleeding.txt $seed/case0_texture.txt scenes/textures.txt scenes/meshes.txt $seed/case1_dof_mesh.txt tools/dragon_rays.txt --spp 256
+  echo "## H200, warm, 1024 spp"
+  ./clpt bench scenes/smallpt.txt $seed/case2_softshadows_colorbleeding.txt $seed/case0_texture.txt scenes/textures.txt scenes/meshes.txt tools/dragon_rays.txt --spp 1024
 } 2>&1 | grep -v warning > $OUT/bench.txt; cat $OUT/bench.txt
 {
-  echo "## case0_texture.txt at the original's 2560x1440, 800 spp (original: 664 s on an RTX 2060 Super)"
-  ./clpt render $seed/case0_texture.txt --spp 800 -o $OUT/case0_800spp.png -v -q 2>&1
-  ./clpt render $seed/case0_texture.txt --spp 800 --texture-filter nearest -o /tmp/case0_nearest.png -q 2>&1
-  echo "## scenes/textures.txt, 1280x720, 4096 spp"
-  ./clpt render scenes/textures.txt --spp 4096 -o $OUT/textures_4096spp.png -q 2>&1
+  echo "## case1_dof_mesh.txt at the original's 2560x1440, 800 spp (original: 9169 s on an RTX 2060 Super)"
+  ./clpt render $seed/case1_dof_mesh.txt --spp 800 -o $OUT/case1_800spp.png -v -q 2>&1
+  echo "## scenes/meshes.txt, 1280x720, 4096 spp"
+  ./clpt render scenes/meshes.txt --spp 4096 -o $OUT/meshes_4096spp.png -q 2>&1
+  echo "## case0_texture.txt at 2560x1440, 800 spp"
+  ./clpt render $seed/case0_texture.txt --spp 800 -o /tmp/case0.png -q 2>&1
   ./clpt render scenes/smallpt.txt --spp 1024 --seed 1 -o /tmp/det_a.pfm -q 2>/dev/null
   ./clpt render scenes/smallpt.txt --spp 1024 --seed 1 -o /tmp/det_b.pfm -q 2>/dev/null
   cmp /tmp/det_a.pfm /tmp/det_b.pfm && echo "determinism: two renders with seed 1 identical"

@@ -14,7 +14,10 @@
 //!   triangles that straddle the plane. A split that leaves one side empty is discounted by
 //!   the empty-space bonus, so empty space gets cut off.
 //! - Triangles are clipped to the node box before their bounds become events ("perfect
-//!   splits"), so a long thin triangle does not follow its bounding box into cells it misses.
+//!   splits"), so a long thin triangle does not follow its bounding box into cells it misses:
+//!   a leaf holds only triangles that overlap it, and fewer leaves hold each triangle. Only the
+//!   triangles straddling a plane are clipped, and they need new events anyway, so the build
+//!   stays O(n log n).
 //! - Leaves end where SAH says a split no longer pays (with a depth limit that grows with
 //!   log n), not at a fixed depth and count, so dense parts get deep trees and empty space
 //!   gets big empty leaves.
@@ -25,16 +28,25 @@
 //!   so far, which is the same as clipping the leaf's hits to its interval but also accepts a
 //!   hit computed an ulp outside the leaf on a plane or box face (see [`KdTree::intersect`]).
 //!
-//! All geometry is in f64 on exact copies of the f32 inputs; every split coordinate is an f32
-//! value (a bound of some triangle's clipped box) and triangles are classified against exactly
-//! that value, so the flattened tree means what the builder decided.
+//! Classification. All geometry is in f64 on exact copies of the f32 inputs. Every split
+//! coordinate is an f32 value (a bound of some triangle's clipped box, strictly inside the
+//! node) and the triangles are classified against exactly that value, so the flattened tree
+//! means what the builder decided: a triangle whose clipped box ends at or below the plane goes
+//! below, one that starts at or above it goes above, one that crosses it goes to both (and is
+//! clipped to each side). A triangle touching the plane from one side goes to that side only.
+//! A triangle lying in the plane goes to the side SAH finds cheaper for all such triangles
+//! together (Wald–Havran's p_side): never both, since a ray meets it at the plane, which both
+//! children's intervals share.
+//!
+//! Zero-area triangles (and those with missing or non-finite vertices) are left out: no ray
+//! can hit them, and a zero-area box would only attract pointless splits.
 
 use super::aabb::Aabb;
 use crate::device::layout::KdNode;
 use glam::DVec3;
 
-/// Triangles numbered at or above this are not indexed (a leaf stores its count in 30 bits);
-/// the mesh loader refuses such meshes.
+/// Triangles numbered at or above this are left out (a leaf stores its count in 30 bits); a
+/// mesh loader should refuse larger meshes.
 pub const MAX_TRIANGLES: usize = (1 << 30) - 1;
 
 /// The deepest tree [`KdTree::build`] makes, whatever [`KdParams::max_depth`] asks: a traversal
@@ -69,12 +81,23 @@ pub struct KdParams {
 }
 
 impl Default for KdParams {
-    /// Traversal 1, intersection 1.5: Wald and Havran used 15 and 20; the device's triangle
-    /// test reads an index, three vertex indices and nine floats and does ~30 flops, against
-    /// one 8-byte node and one multiply-add per step, but a step also costs a branch and stack
-    /// traffic, so about the same ratio holds. Empty bonus 0.2 as in the paper. Leaves above
-    /// 16 triangles are split further when any split makes progress, which only bites in dense
-    /// clusters where SAH's uniform-ray model undervalues splitting.
+    /// Traversal 1, intersection 1.5, empty bonus 0.2, automatic depth, 16.
+    ///
+    /// The cost ratio is Wald and Havran's (15 : 20) and suits the device, where a triangle test
+    /// (an index, three vertex indices, nine floats, ~30 flops) is dearer than a step (one
+    /// 8-byte node, a multiply-add, a branch, sometimes a push) but not by much. Measured on
+    /// the 100k-triangle dragon with 2e5 rays aimed at it (host traversal): intersection cost
+    /// 1.5 makes 737k nodes (77 bytes per triangle), 36 steps and 3.1 triangle tests per ray;
+    /// 3 makes 1.1M nodes for 37 steps and 2.5 tests, 10 makes 1.5M nodes for 38 and 2.2,
+    /// 1 makes 519k nodes for 35 and 3.7. Dearer tests buy little, at twice the memory.
+    ///
+    /// The empty bonus is the paper's. The depth limit binds (the trees reach it), but only
+    /// through chains of ever smaller cells around vertices where many triangles meet (SAH sees
+    /// the same picture at every scale there): a limit of 64 instead of 30 adds 27% nodes to
+    /// the dragon for the same SAH cost. The forced splits above 16 triangles change nothing on
+    /// the meshes tested, where SAH never stops above that; they bound leaves where a greedy
+    /// SAH stops early: 4000 long triangles fanned through one point make one leaf of 4000 by
+    /// SAH alone and leaves of 54 on average with them, at about the same SAH cost.
     fn default() -> KdParams {
         KdParams {
             traversal_cost: 1.0,
@@ -233,8 +256,13 @@ fn clip_bounds(v: &[DVec3; 3], tri: &Aabb, node: &Aabb) -> Option<Aabb> {
     let margin = scale * (f64::EPSILON * 4096.0);
     let mut poly = Polygon::triangle(v);
     for axis in 0..3 {
-        poly = poly.clip(axis, node.lo[axis] - margin, false);
-        poly = poly.clip(axis, node.hi[axis] + margin, true);
+        // Only the faces that cut the triangle's bounds can cut the triangle.
+        if tri.lo[axis] < node.lo[axis] {
+            poly.clip(axis, node.lo[axis] - margin, false);
+        }
+        if tri.hi[axis] > node.hi[axis] {
+            poly.clip(axis, node.hi[axis] + margin, true);
+        }
     }
     let clipped = Aabb::from_points(poly.points[..poly.len].iter().copied());
     if clipped.is_empty() {
@@ -266,25 +294,21 @@ impl Polygon {
 
     /// Sutherland–Hodgman against the plane `axis = c`, keeping the side below it (`below`)
     /// or above it.
-    fn clip(&self, axis: usize, c: f64, below: bool) -> Polygon {
+    fn clip(&mut self, axis: usize, c: f64, below: bool) {
         let inside = |p: DVec3| if below { p[axis] <= c } else { p[axis] >= c };
-        let mut out = Polygon {
-            points: [DVec3::ZERO; 9],
-            len: 0,
-        };
-        let pts = &self.points[..self.len];
-        for (i, &a) in pts.iter().enumerate() {
-            let b = pts[(i + 1) % pts.len()];
+        let (points, len) = (self.points, self.len);
+        self.len = 0;
+        for i in 0..len {
+            let (a, b) = (points[i], points[(i + 1) % len]);
             if inside(a) {
-                out.push(a);
+                self.push(a);
             }
             if inside(a) != inside(b) {
                 let mut p = a + (b - a) * ((c - a[axis]) / (b[axis] - a[axis]));
                 p[axis] = c;
-                out.push(p);
+                self.push(p);
             }
         }
-        out
     }
 
     fn push(&mut self, p: DVec3) {
@@ -423,14 +447,16 @@ struct Output {
 
 impl Output {
     /// Appends a subtree built into its own `Output`, moving its node and index references.
+    /// (References past the format's range wrap; [`fits_format`] then rejects the tree.)
     fn append(&mut self, sub: Output) {
         let node_base = self.nodes.len() as u32;
         let index_base = self.indices.len() as u32;
         self.nodes.extend(sub.nodes.iter().map(|n| {
             if n.is_leaf() {
-                KdNode::leaf(n.first_index() + index_base, n.count())
+                KdNode::leaf(n.first_index().wrapping_add(index_base), n.count())
             } else {
-                KdNode::interior(n.axis(), n.split(), n.above_child() + node_base)
+                let above = n.above_child().wrapping_add(node_base);
+                KdNode::interior(n.axis(), n.split(), above)
             }
         }));
         self.indices.extend_from_slice(&sub.indices);
@@ -445,6 +471,9 @@ impl Output {
         self.indices.extend_from_slice(&triangles);
     }
 }
+
+/// A child node to build: its event lists and triangle count.
+type Child = ([Vec<Event>; 3], usize);
 
 /// The SAH builder's state: the valid triangles (build numbers index `tris`), the per-triangle
 /// side scratch of the split being made, and the output.
@@ -492,29 +521,35 @@ impl<'a> SahBuilder<'a> {
         right_box.lo[split.axis] = f64::from(split.pos);
         let at = self.out.nodes.len();
         self.out.nodes.push(KdNode::default());
+        let mut right = Some(right);
+        let mut helped = None;
         if depth < self.parallel_depth && count >= PARALLEL_MIN_TRIANGLES {
-            let mut other = SahBuilder::new(self.tris, self.costs, self.parallel_depth);
-            let above = std::thread::scope(|s| {
-                let handle = s.spawn(move || {
-                    other.node(right.0, right_box, right.1, depth + 1);
-                    other.out
+            // The above child on another thread, into its own output; if no thread can be
+            // started, it is built here after the below child, as in the serial case.
+            let mut helper = SahBuilder::new(self.tris, self.costs, self.parallel_depth);
+            let joined = std::thread::scope(|s| {
+                let handle = std::thread::Builder::new().spawn_scoped(s, || {
+                    if let Some((events, n)) = right.take() {
+                        helper.node(events, right_box, n, depth + 1);
+                    }
                 });
                 self.node(left.0, left_box, left.1, depth + 1);
-                handle.join()
+                handle.map(|h| h.join())
             });
-            match above {
-                Ok(above) => {
-                    self.out.nodes[at] =
-                        KdNode::interior(split.axis, split.pos, self.out.nodes.len() as u32);
-                    self.out.append(above);
-                }
-                Err(panic) => std::panic::resume_unwind(panic),
+            match joined {
+                Ok(Ok(())) => helped = Some(helper.out),
+                Ok(Err(panic)) => std::panic::resume_unwind(panic),
+                Err(_) => {}
             }
         } else {
             self.node(left.0, left_box, left.1, depth + 1);
-            self.out.nodes[at] =
-                KdNode::interior(split.axis, split.pos, self.out.nodes.len() as u32);
-            self.node(right.0, right_box, right.1, depth + 1);
+        }
+        self.out.nodes[at] = KdNode::interior(split.axis, split.pos, self.out.nodes.len() as u32);
+        if let Some(sub) = helped {
+            self.out.append(sub);
+        }
+        if let Some((events, n)) = right {
+            self.node(events, right_box, n, depth + 1);
         }
     }
 
@@ -522,14 +557,17 @@ impl<'a> SahBuilder<'a> {
     /// events), if the node should be split there.
     fn find_split(&self, events: &[Vec<Event>; 3], bx: &Aabb, count: usize) -> Option<Split> {
         let area = bx.surface_area();
-        if !(area > 0.0) {
+        if area <= 0.0 {
             return None;
         }
         let extent = bx.extent();
+        let inv_area = 1.0 / area;
         let mut best: Option<Split> = None;
         for (axis, list) in events.iter().enumerate() {
             let (lo, hi) = (bx.lo[axis], bx.hi[axis]);
             let (e1, e2) = (extent[(axis + 1) % 3], extent[(axis + 2) % 3]);
+            // A child's area over the node's: (2 e1 e2 + 2 (e1 + e2) width) / area.
+            let (cap, side) = (2.0 * e1 * e2 * inv_area, 2.0 * (e1 + e2) * inv_area);
             let (mut left, mut right) = (0usize, count);
             let mut i = 0;
             while i < list.len() {
@@ -543,8 +581,8 @@ impl<'a> SahBuilder<'a> {
                 right -= planar + ends;
                 let p = f64::from(pos);
                 if p > lo && p < hi {
-                    let p_left = 2.0 * (e1 * e2 + (p - lo) * (e1 + e2)) / area;
-                    let p_right = 2.0 * (e1 * e2 + (hi - p) * (e1 + e2)) / area;
+                    let p_left = cap + side * (p - lo);
+                    let p_right = cap + side * (hi - p);
                     let below = self.costs.split(p_left, p_right, left + planar, right);
                     let above = self.costs.split(p_left, p_right, left, right + planar);
                     let candidate = if below < above {
@@ -576,13 +614,12 @@ impl<'a> SahBuilder<'a> {
     /// Splits the node's event lists into its children's, in time linear in their length
     /// plus sorting the events of the triangles that straddle the plane, which are clipped to
     /// each child's box afresh. Returns each child's lists and triangle count.
-    #[allow(clippy::type_complexity)]
     fn split_events(
         &mut self,
         events: [Vec<Event>; 3],
         bx: &Aabb,
         split: &Split,
-    ) -> (([Vec<Event>; 3], usize), ([Vec<Event>; 3], usize)) {
+    ) -> (Child, Child) {
         let axis_list = &events[split.axis];
         for e in axis_list.iter().filter(|e| e.kind() != END) {
             self.side[e.tri()] = BOTH;
@@ -851,17 +888,16 @@ impl KdTree {
     /// reference of the device traversal.
     ///
     /// The ray is clipped to the root box, then walks the tree front to back: at an interior
-    /// node the child on the origin's side of the plane comes first, and the far child is
-    /// pushed with the interval past the plane only if the ray reaches the plane inside the
-    /// node's interval. A ray parallel to the plane stays on the origin's side (below when it
-    /// lies in the plane). Each leaf's triangles are tested against the whole ray; the nearest
-    /// hit so far ends the walk as soon as it lies within the current leaf's [t_min, t_max]
-    /// (any later leaf starts beyond it), and a hit beyond the leaf waits for the later leaves.
-    /// Accepting a hit beyond the leaf, instead of dropping it and finding it again in the
-    /// leaf that owns it, also keeps hits that rounding puts an ulp past the plane or box face
-    /// they lie on (a triangle in a split plane, or on the root box, is stored on one side
-    /// only).
-    #[allow(clippy::too_many_arguments)]
+    /// node it visits the child it is in before reaching the plane, then (pushed on the stack
+    /// with the interval past the plane) the other child, if it reaches the plane within the
+    /// node's interval. A ray parallel to the plane stays on its origin's side (below if it lies
+    /// in the plane). Each leaf's triangles are tested against the whole ray; the nearest hit
+    /// so far ends the walk as soon as it lies within the current leaf's [t_min, t_max] (every
+    /// later leaf starts beyond it), and a hit beyond the leaf waits for the later leaves.
+    /// Keeping a hit beyond the leaf, instead of dropping it and finding it again in the leaf
+    /// that owns it, gives the same answer but also keeps hits that rounding puts an ulp past
+    /// the plane or box face they lie on (a triangle in a split plane or on the root box is
+    /// stored on one side only); the device should do the same in f32.
     pub fn intersect(
         &self,
         positions: &[[f32; 3]],

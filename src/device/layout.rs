@@ -250,6 +250,9 @@ impl Default for Plane {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct RenderParams {
     pub camera: Camera,
+    pub num_spheres: u32,
+    pub num_planes: u32,
+    pub num_mesh_instances: u32,
     pub num_objects: u32,
     pub first_unbounded: u32,
     pub num_bvh_nodes: u32,
@@ -259,7 +262,7 @@ pub struct RenderParams {
     pub rr_depth: u32,
     pub texture_filter: u32,
 }
-const _: () = assert!(size_of::<RenderParams>() == 120);
+const _: () = assert!(size_of::<RenderParams>() == 132);
 
 /// One struct's layout as Rust sees it: its C name, size, and (field name, offset) pairs.
 pub struct StructLayout {
@@ -316,7 +319,9 @@ pub const LAYOUT: &[StructLayout] = &[
         dir_u => "dir_u", dir_v => "dir_v", material => "material", transform => "transform",
     }),
     layout!(RenderParams, "RenderParams", {
-        camera => "camera", num_objects => "num_objects", first_unbounded => "first_unbounded",
+        camera => "camera", num_spheres => "num_spheres", num_planes => "num_planes",
+        num_mesh_instances => "num_mesh_instances", num_objects => "num_objects",
+        first_unbounded => "first_unbounded",
         num_bvh_nodes => "num_bvh_nodes",
         seed_lo => "seed_lo", seed_hi => "seed_hi", max_depth => "max_depth",
         rr_depth => "rr_depth", texture_filter => "texture_filter",

@@ -363,6 +363,9 @@ impl PackedScene {
     ) -> RenderParams {
         RenderParams {
             camera: self.camera.to_device(),
+            num_spheres: self.spheres.len() as u32,
+            num_planes: self.planes.len() as u32,
+            num_mesh_instances: self.mesh_instances.len() as u32,
             num_objects: self.objects.len() as u32,
             first_unbounded: self.first_unbounded,
             num_bvh_nodes: self.bvh.len() as u32,
