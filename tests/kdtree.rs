@@ -14,7 +14,6 @@ use clpt::accel::kdtree::{self, KdParams, KdTree, MAX_DEPTH};
 use glam::DVec3;
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
-use std::collections::HashMap;
 use std::sync::{Mutex, MutexGuard};
 use std::time::Instant;
 
@@ -69,108 +68,24 @@ impl Mesh {
     }
 }
 
-/// An icosahedron subdivided `levels` times onto the unit sphere, vertices shared:
-/// 20·4^levels triangles.
+/// An icosahedron subdivided `levels` times onto the unit sphere (clpt's own generator),
+/// vertices shared: 20·4^levels triangles.
 fn icosphere(levels: u32) -> Mesh {
-    let g = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut points: Vec<DVec3> = [
-        [-1.0, g, 0.0],
-        [1.0, g, 0.0],
-        [-1.0, -g, 0.0],
-        [1.0, -g, 0.0],
-        [0.0, -1.0, g],
-        [0.0, 1.0, g],
-        [0.0, -1.0, -g],
-        [0.0, 1.0, -g],
-        [g, 0.0, -1.0],
-        [g, 0.0, 1.0],
-        [-g, 0.0, -1.0],
-        [-g, 0.0, 1.0],
-    ]
-    .into_iter()
-    .map(|p| DVec3::from(p).normalize())
-    .collect();
-    let mut triangles: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..levels {
-        let mut midpoints: HashMap<(u32, u32), u32> = HashMap::new();
-        let mut midpoint = |a: u32, b: u32, points: &mut Vec<DVec3>| {
-            *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                points.push(((points[a as usize] + points[b as usize]) * 0.5).normalize());
-                points.len() as u32 - 1
-            })
-        };
-        triangles = triangles
-            .iter()
-            .flat_map(|&[a, b, c]| {
-                let ab = midpoint(a, b, &mut points);
-                let bc = midpoint(b, c, &mut points);
-                let ca = midpoint(c, a, &mut points);
-                [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
-            })
-            .collect();
-    }
+    from_procedural(clpt::scene::procedural::icosphere(levels))
+}
+
+fn from_procedural(m: clpt::scene::mesh::TriangleMesh) -> Mesh {
     Mesh {
-        name: format!("icosphere {}", triangles.len()),
-        positions: points.iter().map(|p| p.as_vec3().to_array()).collect(),
-        triangles,
+        name: format!("{} {}", m.path.display(), m.triangles.len()),
+        positions: m.positions,
+        triangles: m.triangles,
     }
 }
 
-/// A torus (radii 1 and 0.3) around z on a `major` × `minor` grid, vertices shared.
+/// A torus (radii 1 and 0.3) on a `major` × `minor` grid (clpt's own generator), vertices
+/// shared.
 fn torus(major: u32, minor: u32) -> Mesh {
-    let mut positions = Vec::new();
-    for i in 0..major {
-        let u = i as f64 / major as f64 * std::f64::consts::TAU;
-        for j in 0..minor {
-            let v = j as f64 / minor as f64 * std::f64::consts::TAU;
-            let r = 1.0 + 0.3 * v.cos();
-            positions.push([
-                (r * u.cos()) as f32,
-                (r * u.sin()) as f32,
-                (0.3 * v.sin()) as f32,
-            ]);
-        }
-    }
-    let index = |i: u32, j: u32| (i % major) * minor + j % minor;
-    let mut triangles = Vec::new();
-    for i in 0..major {
-        for j in 0..minor {
-            let (a, b, c, d) = (
-                index(i, j),
-                index(i + 1, j),
-                index(i + 1, j + 1),
-                index(i, j + 1),
-            );
-            triangles.push([a, b, c]);
-            triangles.push([a, c, d]);
-        }
-    }
-    Mesh {
-        name: format!("torus {}", triangles.len()),
-        positions,
-        triangles,
-    }
+    from_procedural(clpt::scene::procedural::torus(1.0, 0.3, major, minor))
 }
 
 /// `n` random triangles in [-1, 1]^3: mostly small, some long and thin, some large.
