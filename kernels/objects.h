@@ -15,21 +15,26 @@
 #include "plane.h"
 #include "triangle.h"
 #include "kdtree.h"
+#include "revsurface.h"
 
 /* Program switches (set by the host from the scene, src/device/program.rs): CLPT_MESHES 0
  * leaves out the mesh, kd-tree and triangle code; CLPT_BVH 0 tests objects in a loop instead
- * of traversing the BVH. */
+ * of traversing the BVH; CLPT_REVSURFACES 0 leaves out surfaces of revolution. */
 #ifndef CLPT_MESHES
 #define CLPT_MESHES 1
 #endif
 #ifndef CLPT_BVH
 #define CLPT_BVH 1
 #endif
+#ifndef CLPT_REVSURFACES
+#define CLPT_REVSURFACES 1
+#endif
 
 #define HIT_NONE 0u
 #define HIT_SPHERE 1u
 #define HIT_PLANE 2u
 #define HIT_MESH 3u
+#define HIT_REVSURFACE 4u
 
 /* Every scene buffer, in the order kernels take them (SceneBuffers::in_order on the host). */
 typedef struct Scene {
@@ -49,6 +54,8 @@ typedef struct Scene {
     __global const float* normals;
     __global const ObjectRef* objects;
     __global const BvhNode* bvh;
+    __global const RevSurface* revsurfaces;
+    __global const float2* rev_points;
 } Scene;
 
 #define SCENE_KERNEL_ARGS                                                                     \
@@ -59,17 +66,20 @@ typedef struct Scene {
         __global const MeshInstance *mesh_instances, __global const KdNode *kd_nodes,        \
         __global const uint *kd_indices, __global const uint *triangles,                     \
         __global const float *vertices, __global const float *normals,                       \
-        __global const ObjectRef *objects, __global const BvhNode *bvh
+        __global const ObjectRef *objects, __global const BvhNode *bvh,                      \
+        __global const RevSurface *revsurfaces, __global const float2 *rev_points
 #define SCENE_FROM_KERNEL_ARGS                                                                \
     {params,   materials,  spheres,   planes,   maps,     texels,  transforms, meshes,        \
-     mesh_instances, kd_nodes, kd_indices, triangles, vertices, normals, objects, bvh}
+     mesh_instances, kd_nodes, kd_indices, triangles, vertices, normals, objects, bvh,         \
+     revsurfaces, rev_points}
 
 typedef struct Hit {
     float t;
     uint kind;  /* HIT_* */
     uint index; /* among spheres, planes or mesh instances */
-    uint prim;  /* meshes: the triangle */
-    float b1, b2; /* meshes: barycentric weights of the triangle's second and third vertex */
+    uint prim;  /* meshes: the triangle; surfaces of revolution: the profile segment */
+    float b1, b2; /* meshes: barycentric weights of the triangle's second and third vertex;
+                   * surfaces of revolution: b1 is the segment's parameter u */
 } Hit;
 
 /* The surface at a hit, in world space: refined point, its error bound, unit geometric normal
@@ -143,11 +153,54 @@ inline void plane_object_intersect(const Scene* sc, uint index, float3 o, float3
     }
 }
 
+#if CLPT_REVSURFACES
+inline void rev_object_intersect(const Scene* sc, uint index, float3 o, float3 d, Hit* hit) {
+    __global const RevSurface* r = &sc->revsurfaces[index];
+    float scale;
+    to_object_space(sc, r->transform, &o, &d, &scale);
+    const float t_max = hit->t * scale;
+    uint seg = 0u;
+    float u = 0.0f;
+    const float t = revsurface_intersect(r, sc->rev_points, o, d, t_max, &seg, &u);
+    if (t < t_max) {
+        hit->t = t / scale;
+        hit->kind = HIT_REVSURFACE;
+        hit->index = index;
+        hit->prim = seg;
+        hit->b1 = u;
+    }
+}
+
+/* The hit point moved onto the surface at the profile parameter found, its normal (the
+ * profile's normal (y', -x') revolved, turned with the profile where x < 0) and an error
+ * bound covering the Newton iteration's tolerance. */
+inline void rev_surface(const Scene* sc, __global const RevSurface* r, Hit hit, float3 p_ray,
+                        float3* p, float3* p_error, float3* n) {
+    __global const float2* pts = sc->rev_points + r->first_point + hit.prim * (r->degree + 1u);
+    float2 s, ds;
+    bezier_eval(pts, r->degree, hit.b1, &s, &ds);
+    const float rho = sqrt(p_ray.x * p_ray.x + p_ray.z * p_ray.z);
+    const float3 radial = rho > 0.0f ? (float3)(p_ray.x / rho, 0.0f, p_ray.z / rho)
+                                     : (float3)(1.0f, 0.0f, 0.0f);
+    *p = fabs(s.x) * radial + (float3)(0.0f, s.y, 0.0f);
+    const float sign = s.x < 0.0f ? -1.0f : 1.0f;
+    *n = normalize(ds.y * radial - sign * ds.x * (float3)(0.0f, 1.0f, 0.0f));
+    *p_error = (float3)(4e-6f * (length(*p) + length(p_ray - *p)) + 1e-6f * length(ds)) +
+               fabs(p_ray - *p);
+}
+#endif
+
 /* A BVH leaf's object, whatever its kind. */
 inline void object_intersect(const Scene* sc, ObjectRef ref, float3 o, float3 d, Hit* hit) {
 #if CLPT_MESHES
     if (ref.kind == OBJECT_MESH) {
         mesh_object_intersect(sc, ref.index, o, d, hit);
+        return;
+    }
+#endif
+#if CLPT_REVSURFACES
+    if (ref.kind == OBJECT_REVSURFACE) {
+        rev_object_intersect(sc, ref.index, o, d, hit);
         return;
     }
 #endif
@@ -181,6 +234,11 @@ inline Hit scene_intersect(const Scene* sc, float3 o, float3 d) {
 #if CLPT_MESHES
     for (uint i = 0u; i < sc->params->num_mesh_instances; ++i) {
         mesh_object_intersect(sc, i, o, d, &hit);
+    }
+#endif
+#if CLPT_REVSURFACES
+    for (uint i = 0u; i < sc->params->num_revsurfaces; ++i) {
+        rev_object_intersect(sc, i, o, d, &hit);
     }
 #endif
 #endif
@@ -225,12 +283,19 @@ inline Surface scene_surface(const Scene* sc, Hit hit, float3 o, float3 d) {
     } else
 #endif
     {
-        transform = hit.kind == HIT_SPHERE ? sc->spheres[hit.index].transform
-                                           : sc->planes[hit.index].transform;
+        transform = hit.kind == HIT_SPHERE  ? sc->spheres[hit.index].transform
+                    : hit.kind == HIT_PLANE ? sc->planes[hit.index].transform
+                                            : sc->revsurfaces[hit.index].transform;
         float scale;
         to_object_space(sc, transform, &lo, &ld, &scale);
         t *= scale;
-        if (hit.kind == HIT_SPHERE) {
+        if (hit.kind == HIT_REVSURFACE) {
+#if CLPT_REVSURFACES
+            __global const RevSurface* r = &sc->revsurfaces[hit.index];
+            rev_surface(sc, r, hit, lo + t * ld, &s.p, &s.p_error, &s.n);
+            s.material = r->material;
+#endif
+        } else if (hit.kind == HIT_SPHERE) {
             sphere_surface(&sc->spheres[hit.index], lo, ld, t, &s.p, &s.n, &s.p_error);
             s.material = sc->spheres[hit.index].material;
         } else {

@@ -148,10 +148,22 @@ typedef struct MeshInstance {
 } MeshInstance;
 CLPT_ASSERT_SIZE(MeshInstance, 12);
 
+/* A surface of revolution (revsurface.cuh): its profile as Bezier segments of one degree,
+ * degree+1 (x, y) control points each, in the scene's float2 point array. */
+typedef struct RevSurface {
+    uint first_point;
+    uint num_segments;
+    uint degree;
+    uint material;
+    uint transform;        /* index into the Transform array, or TRANSFORM_NONE */
+} RevSurface;
+CLPT_ASSERT_SIZE(RevSurface, 20);
+
 /* What a BVH leaf holds: an object of some kind, by its index among its kind. */
 #define OBJECT_SPHERE 0u
 #define OBJECT_PLANE 1u
 #define OBJECT_MESH 2u
+#define OBJECT_REVSURFACE 3u
 typedef struct ObjectRef {
     uint kind;             /* OBJECT_* */
     uint index;
@@ -164,6 +176,7 @@ typedef struct RenderParams {
     uint num_spheres;
     uint num_planes;
     uint num_mesh_instances;
+    uint num_revsurfaces;
     uint num_objects;      /* ObjectRef entries; [first_unbounded, num_objects) are outside the BVH */
     uint first_unbounded;
     uint num_bvh_nodes;
@@ -173,6 +186,6 @@ typedef struct RenderParams {
     uint rr_depth;         /* Russian roulette starts at this depth */
     uint texture_filter;   /* FILTER_* */
 } RenderParams;
-CLPT_ASSERT_SIZE(RenderParams, 132);
+CLPT_ASSERT_SIZE(RenderParams, 136);
 
 #endif

@@ -226,34 +226,36 @@ fn default_scene_materials() {
 }
 
 #[test]
-fn originals_with_meshes_parse_and_curves_are_refused_where_they_start() {
-    let Some(seed) =
-        common::seed_dir("originals_with_meshes_parse_and_curves_are_refused_where_they_start")
-    else {
+fn originals_with_meshes_and_curves_parse() {
+    let Some(seed) = common::seed_dir("originals_with_meshes_and_curves_parse") else {
         return;
     };
-    for (name, meshes) in [("case1_dof_mesh.txt", 3), ("debug_scenepareser.txt", 1)] {
-        let scene = parse_testcase(&seed, name);
-        let found = scene
-            .objects
-            .iter()
-            .filter(|o| matches!(o.shape, Shape::Mesh { .. }) && o.transform.is_some())
-            .count();
-        assert_eq!(found, meshes, "{name}: transformed meshes");
-    }
-    for (name, line, column) in [
-        ("case3_wineglass.txt", 145, 9),
-        ("default-0.txt", 43, 9),
-        ("default-bak.txt", 53, 9),
-        ("scene08_core.txt", 21, 9),
+    for (name, meshes, curves) in [
+        ("case1_dof_mesh.txt", 3, 0),
+        ("debug_scenepareser.txt", 1, 0),
+        ("case3_wineglass.txt", 0, 1),
+        ("default-0.txt", 0, 1),
+        ("default-bak.txt", 0, 1),
+        ("scene08_core.txt", 0, 1),
     ] {
-        let err = parse_scene(&read_testcase(&seed, name), name).unwrap_err();
+        let scene = parse_testcase(&seed, name);
+        let count = |f: fn(&Shape) -> bool| scene.objects.iter().filter(|o| f(&o.shape)).count();
         assert_eq!(
-            err.to_string(),
-            format!(
-                "{name}:{line}:{column}: `RevSurface` is not supported yet \
-                 (it arrives with the curves issue)"
-            )
+            count(|s| matches!(s, Shape::Mesh { .. })),
+            meshes,
+            "{name}: meshes"
+        );
+        assert_eq!(
+            count(|s| matches!(s, Shape::RevSurface { .. })),
+            curves,
+            "{name}: curves"
+        );
+        assert!(
+            scene.objects.iter().all(|o| !matches!(
+                o.shape,
+                Shape::Mesh { .. } | Shape::RevSurface { .. }
+            ) || o.transform.is_some()),
+            "{name}: transforms"
         );
     }
 }
@@ -603,8 +605,8 @@ fn malformed_scenes_fail_where_the_mistake_is() {
             with_group("numObjects 1 Cube { }"),
             3,
             22,
-            "expected `MaterialIndex`, `Sphere`, `Plane`, `Mesh`, `TriangleMesh`, `Transform` or `}` \
-             in `Group`, found `Cube`",
+            "expected `MaterialIndex`, `Sphere`, `Plane`, `Mesh`, `TriangleMesh`, `Transform`, \
+             `RevSurface` or `}` in `Group`, found `Cube`",
         ),
         (
             "object without its brace",
@@ -628,11 +630,27 @@ fn malformed_scenes_fail_where_the_mistake_is() {
             "`Transform` without an object",
         ),
         (
-            "RevSurface",
+            "RevSurface without a profile",
             with_group("numObjects 1 RevSurface { }"),
             3,
-            22,
-            "`RevSurface` is not supported yet (it arrives with the curves issue)",
+            35,
+            "expected `profile` in `RevSurface` opened at 3:22, found `}`",
+        ),
+        (
+            "profile out of the xy-plane",
+            with_group(
+                "numObjects 1 RevSurface { profile BezierCurve { controls [ 0 0 0 ] [ 1 1 0.5 ] } }",
+            ),
+            3,
+            82,
+            "control point 2 of the profile has z = 0.5",
+        ),
+        (
+            "unknown curve kind",
+            with_group("numObjects 1 RevSurface { profile NurbsCurve { } }"),
+            3,
+            43,
+            "expected `BezierCurve` or `BsplineCurve`, found `NurbsCurve`",
         ),
         (
             "TriangleMesh without its file",

@@ -150,6 +150,20 @@ pub const OBJECT_SPHERE: u32 = 0;
 pub const OBJECT_PLANE: u32 = 1;
 /// `OBJECT_MESH` in `types.h`.
 pub const OBJECT_MESH: u32 = 2;
+/// `OBJECT_REVSURFACE` in `types.h`.
+pub const OBJECT_REVSURFACE: u32 = 3;
+
+/// `RevSurface` in `types.h`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RevSurface {
+    pub first_point: u32,
+    pub num_segments: u32,
+    pub degree: u32,
+    pub material: u32,
+    pub transform: u32,
+}
+const _: () = assert!(size_of::<RevSurface>() == 20);
 
 /// `Transform` in `types.h`.
 #[repr(C)]
@@ -253,6 +267,7 @@ pub struct RenderParams {
     pub num_spheres: u32,
     pub num_planes: u32,
     pub num_mesh_instances: u32,
+    pub num_revsurfaces: u32,
     pub num_objects: u32,
     pub first_unbounded: u32,
     pub num_bvh_nodes: u32,
@@ -262,7 +277,7 @@ pub struct RenderParams {
     pub rr_depth: u32,
     pub texture_filter: u32,
 }
-const _: () = assert!(size_of::<RenderParams>() == 132);
+const _: () = assert!(size_of::<RenderParams>() == 136);
 
 /// One struct's layout as Rust sees it: its C name, size, and (field name, offset) pairs.
 pub struct StructLayout {
@@ -314,13 +329,18 @@ pub const LAYOUT: &[StructLayout] = &[
         mesh => "mesh", transform => "transform", material => "material",
     }),
     layout!(ObjectRef, "ObjectRef", { kind => "kind", index => "index" }),
+    layout!(RevSurface, "RevSurface", {
+        first_point => "first_point", num_segments => "num_segments", degree => "degree",
+        material => "material", transform => "transform",
+    }),
     layout!(Plane, "Plane", {
         normal => "normal", offset => "offset", range => "range", centerp => "centerp",
         dir_u => "dir_u", dir_v => "dir_v", material => "material", transform => "transform",
     }),
     layout!(RenderParams, "RenderParams", {
         camera => "camera", num_spheres => "num_spheres", num_planes => "num_planes",
-        num_mesh_instances => "num_mesh_instances", num_objects => "num_objects",
+        num_mesh_instances => "num_mesh_instances", num_revsurfaces => "num_revsurfaces",
+        num_objects => "num_objects",
         first_unbounded => "first_unbounded",
         num_bvh_nodes => "num_bvh_nodes",
         seed_lo => "seed_lo", seed_hi => "seed_hi", max_depth => "max_depth",

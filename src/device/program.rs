@@ -26,6 +26,7 @@ const EMBEDDED: &[(&str, &str)] = &[
     ("triangle.h", include_str!("../../kernels/triangle.h")),
     ("kdtree.h", include_str!("../../kernels/kdtree.h")),
     ("bvh.h", include_str!("../../kernels/bvh.h")),
+    ("revsurface.h", include_str!("../../kernels/revsurface.h")),
     ("objects.h", include_str!("../../kernels/objects.h")),
     ("material.h", include_str!("../../kernels/material.h")),
     ("pathtracer.cl", include_str!("../../kernels/pathtracer.cl")),

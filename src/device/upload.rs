@@ -7,7 +7,7 @@
 use super::Device;
 use super::layout::{
     self, BvhNode, KdNode, Material, MeshDesc, MeshInstance, ObjectRef, Plane, RenderParams,
-    Sphere, Transform,
+    RevSurface, Sphere, Transform,
 };
 use crate::accel::aabb::Aabb;
 use crate::accel::bvh::Bvh;
@@ -55,6 +55,9 @@ pub struct PackedScene {
     pub objects: Vec<ObjectRef>,
     pub first_unbounded: u32,
     pub bvh: Vec<BvhNode>,
+    pub revsurfaces: Vec<RevSurface>,
+    /// Control points (x, y) of every surface of revolution's Bezier segments.
+    pub rev_points: Vec<[f32; 2]>,
     /// World boxes of `objects[..first_unbounded]`, as the BVH was built on them.
     pub object_boxes: Vec<Aabb>,
 }
@@ -161,6 +164,22 @@ impl PackedScene {
                         transform: packed.push_transform(transform),
                     };
                     packed.push_plane(plane, transform);
+                }
+                Shape::RevSurface { curve } => {
+                    let segments = curve.bezier_segments();
+                    let revsurface = RevSurface {
+                        first_point: packed.rev_points.len() as u32,
+                        num_segments: segments.len() as u32,
+                        degree: curve.degree() as u32,
+                        material,
+                        transform: packed.push_transform(transform),
+                    };
+                    packed
+                        .rev_points
+                        .extend(segments.iter().flatten().map(|p| [p.x as f32, p.y as f32]));
+                    let b = transform_box(&curve.revolution_bounds(), transform);
+                    packed.push_object(layout::OBJECT_REVSURFACE, packed.revsurfaces.len(), b);
+                    packed.revsurfaces.push(revsurface);
                 }
                 Shape::Mesh { file } => {
                     let path = crate::scene::resolve(
@@ -366,6 +385,7 @@ impl PackedScene {
             num_spheres: self.spheres.len() as u32,
             num_planes: self.planes.len() as u32,
             num_mesh_instances: self.mesh_instances.len() as u32,
+            num_revsurfaces: self.revsurfaces.len() as u32,
             num_objects: self.objects.len() as u32,
             first_unbounded: self.first_unbounded,
             num_bvh_nodes: self.bvh.len() as u32,
@@ -418,6 +438,8 @@ pub struct SceneBuffers {
     pub normals: ocl::Buffer<u8>,
     pub objects: ocl::Buffer<u8>,
     pub bvh: ocl::Buffer<u8>,
+    pub revsurfaces: ocl::Buffer<u8>,
+    pub rev_points: ocl::Buffer<u8>,
 }
 
 impl SceneBuffers {
@@ -439,11 +461,13 @@ impl SceneBuffers {
             normals: upload_slice(device, &packed.normals)?,
             objects: upload_slice(device, &packed.objects)?,
             bvh: upload_slice(device, &packed.bvh)?,
+            revsurfaces: upload_slice(device, &packed.revsurfaces)?,
+            rev_points: upload_slice(device, &packed.rev_points)?,
         })
     }
 
     /// Every buffer in kernel-argument order (the `Scene` struct of objects.h).
-    pub fn in_order(&self) -> [&ocl::Buffer<u8>; 16] {
+    pub fn in_order(&self) -> [&ocl::Buffer<u8>; 18] {
         [
             &self.params,
             &self.materials,
@@ -461,6 +485,8 @@ impl SceneBuffers {
             &self.normals,
             &self.objects,
             &self.bvh,
+            &self.revsurfaces,
+            &self.rev_points,
         ]
     }
 }

@@ -162,8 +162,8 @@ impl<'d> Renderer<'d> {
         };
         let params: RenderParams =
             packed.params(options.seed, options.max_depth, options.rr_depth, filter);
-        // Leave out what the scene does not need: the mesh code without meshes, the BVH
-        // traversal where a loop over few objects is faster.
+        // Leave out what the scene does not need: the mesh and revolved-surface code without
+        // such objects, the BVH traversal where a loop over few objects is faster.
         let use_bvh = match options.object_bvh {
             ObjectBvh::Auto => packed.objects.len() >= BVH_MIN_OBJECTS,
             ObjectBvh::On => true,
@@ -175,6 +175,10 @@ impl<'d> Renderer<'d> {
                 (!packed.meshes.is_empty() as u32).to_string(),
             ),
             ("CLPT_BVH", (use_bvh as u32).to_string()),
+            (
+                "CLPT_REVSURFACES",
+                (!packed.revsurfaces.is_empty() as u32).to_string(),
+            ),
         ];
         let program = program::build_entry(
             device,
@@ -240,11 +244,11 @@ impl<'d> Renderer<'d> {
                 .set_arg(i, v)
                 .map_err(|e| Error::opencl("setting a kernel argument", e))
         };
-        // After the 16 scene buffers and the two film buffers.
-        set(18, sample_start)?;
-        set(19, count)?;
-        set(20, row_start)?;
-        set(21, rows)?;
+        // After the 18 scene buffers and the two film buffers.
+        set(20, sample_start)?;
+        set(21, count)?;
+        set(22, row_start)?;
+        set(23, rows)?;
         // SAFETY: the kernel's buffers are alive (owned by self) and sized for the whole
         // image; the kernel bounds-checks the padded work-items.
         unsafe {

@@ -4,6 +4,7 @@
 
 pub mod builtin;
 pub mod camera;
+pub mod curve;
 pub mod mesh;
 pub mod parse;
 pub mod procedural;
@@ -72,7 +73,7 @@ pub enum Shape {
     /// `Sphere { center V radius F }`.
     Sphere { center: DVec3, radius: f64 },
     /// `Plane { normal V offset F range F [centerp V] [dirU V] [dirV V] }`: the points p with
-    /// normal.p = offset (normal as written, normalised by [`Shape::normalized`] users),
+    /// normal.p = offset (the normal as written; packing divides normal and offset by its length),
     /// visible from the side the normal points to.
     Plane {
         normal: DVec3,
@@ -85,6 +86,8 @@ pub enum Shape {
     /// `Mesh { obj_file PATH }` or `TriangleMesh { obj_file PATH }`: the path as written,
     /// resolved like texture paths when the mesh is loaded.
     Mesh { file: PathBuf },
+    /// `RevSurface { profile ... }`: the profile curve revolved about the y axis.
+    RevSurface { curve: curve::Curve },
 }
 
 /// An object of the `Group` with the material index in force where it was declared.

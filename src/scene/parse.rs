@@ -19,9 +19,10 @@
 //! range, material indices with no material, blocks left open at the end of the file. `Mesh`,
 //! `TriangleMesh`, `Transform` and `RevSurface` are refused until the issues that bring them land.
 
+use super::curve::{Curve, CurveKind};
 use super::{CameraDesc, Material, MaterialKind, Object, Scene, Shape, TextureFiles};
 use crate::error::{Location, ParseError, Warning};
-use glam::{DMat4, DVec3};
+use glam::{DMat4, DVec2, DVec3};
 use std::path::PathBuf;
 
 type Result<T> = std::result::Result<T, ParseError>;
@@ -44,16 +45,17 @@ const MATERIAL_FIELDS: [&str; 5] = ["emission", "color", "type", "texture", "}"]
 const TEXTURE_FIELDS: [&str; 5] = ["color", "emission", "type", "bump", "}"];
 const SPHERE_FIELDS: [&str; 3] = ["center", "radius", "}"];
 const PLANE_FIELDS: [&str; 7] = ["normal", "offset", "range", "centerp", "dirU", "dirV", "}"];
-const GROUP_ITEMS: [&str; 7] = [
+const GROUP_ITEMS: [&str; 8] = [
     "MaterialIndex",
     "Sphere",
     "Plane",
     "Mesh",
     "TriangleMesh",
     "Transform",
+    "RevSurface",
     "}",
 ];
-const TRANSFORM_ITEMS: [&str; 14] = [
+const TRANSFORM_ITEMS: [&str; 15] = [
     "Scale",
     "UniformScale",
     "Translate",
@@ -67,6 +69,7 @@ const TRANSFORM_ITEMS: [&str; 14] = [
     "Mesh",
     "TriangleMesh",
     "Transform",
+    "RevSurface",
     "}",
 ];
 
@@ -300,8 +303,26 @@ fn object_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<(Shape, 
         "Plane" => Ok((plane_block(cur, keyword)?, None)),
         "Mesh" | "TriangleMesh" => Ok((mesh_block(cur, keyword)?, None)),
         "Transform" => transform_block(cur, keyword),
-        _ => Err(cur.unsupported(keyword, "curves")),
+        _ => Ok((revsurface_block(cur, keyword)?, None)),
     }
+}
+
+/// `RevSurface { profile BezierCurve|BsplineCurve { controls [ x y z ] ... } }`: a profile in
+/// the xy-plane, revolved about the y axis.
+fn revsurface_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Shape> {
+    cur.open_block(keyword)?;
+    let mut curve = None;
+    let close = loop {
+        let key = cur.field()?;
+        match key.text {
+            "}" => break key,
+            "profile" => cur.once(&mut curve, key, |c| c.curve())?,
+            _ => return Err(cur.unknown_field(key, keyword, &["profile", "}"])),
+        }
+    };
+    Ok(Shape::RevSurface {
+        curve: cur.required(curve, "profile", keyword, close)?,
+    })
 }
 
 fn mesh_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Shape> {
@@ -609,16 +630,6 @@ impl<'a> Cursor<'a> {
         )
     }
 
-    fn unsupported(&self, keyword: Token, issue: &str) -> ParseError {
-        self.error_at(
-            keyword,
-            format!(
-                "`{}` is not supported yet (it arrives with the {issue} issue)",
-                keyword.text
-            ),
-        )
-    }
-
     fn missing_blocks(&self, missing: [bool; 3]) -> ParseError {
         let names: Vec<&str> = BLOCKS
             .iter()
@@ -633,6 +644,56 @@ impl<'a> Cursor<'a> {
             location: self.end.clone(),
             message: format!("expected {what}, found end of file"),
         }
+    }
+
+    /// `BezierCurve { controls [ x y z ] ... }` or `BsplineCurve { ... }`, checked: the points
+    /// must lie in the xy-plane (z = 0) and be enough for the curve's kind.
+    fn curve(&mut self) -> Result<Curve> {
+        let kind_token = match self.next() {
+            Some(t) if t.text == "BezierCurve" || t.text == "BsplineCurve" => t,
+            found => return Err(self.expected(found, "`BezierCurve` or `BsplineCurve`")),
+        };
+        let kind = if kind_token.text == "BezierCurve" {
+            CurveKind::Bezier
+        } else {
+            CurveKind::BSpline
+        };
+        self.open_block(kind_token)?;
+        match self.next() {
+            Some(t) if t.text == "controls" => {}
+            found => return Err(self.expected(found, "`controls`")),
+        }
+        let mut points = Vec::new();
+        loop {
+            match self.next() {
+                Some(t) if t.text == "}" => {
+                    self.open.pop();
+                    break;
+                }
+                Some(t) if t.text == "[" => {
+                    let x = self.number("controls")?.0;
+                    let y = self.number("controls")?.0;
+                    let (z, z_token) = self.number("controls")?;
+                    if z != 0.0 {
+                        return Err(self.error_at(
+                            z_token,
+                            format!(
+                                "control point {} of the profile has z = {z}: a profile lies in \
+                                 the xy-plane (z = 0) and is revolved about the y axis",
+                                points.len() + 1
+                            ),
+                        ));
+                    }
+                    match self.next() {
+                        Some(t) if t.text == "]" => {}
+                        found => return Err(self.expected(found, "`]` after a control point")),
+                    }
+                    points.push(DVec2::new(x, y));
+                }
+                found => return Err(self.expected(found, "`[` (a control point) or `}`")),
+            }
+        }
+        Curve::new(kind, points).map_err(|message| self.error_at(kind_token, message))
     }
 
     /// Consumes the `}` that closes a block of fixed contents (`Rotate { .. }`, `Matrix4f`).

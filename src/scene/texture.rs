@@ -293,10 +293,11 @@ fn check_mapped_shapes(scene: &Scene, pack: &TexturePack) -> Result<()> {
                     object.location
                 )));
             }
-            Shape::Mesh { .. } => {
+            Shape::Mesh { .. } | Shape::RevSurface { .. } => {
                 return Err(Error::Invalid(format!(
-                    "{}: this mesh's material has texture maps, but meshes carry no texture \
-                     coordinates in clpt (give it a material without `texture`)",
+                    "{}: this object's material has texture maps, but meshes and surfaces of \
+                     revolution carry no texture coordinates in clpt (give it a material \
+                     without `texture`)",
                     object.location
                 )));
             }

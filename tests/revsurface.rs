@@ -1,0 +1,227 @@
+//! Surfaces of revolution on the device against the certain f64 reference of
+//! `clpt::scene::curve::intersect_reference`: for each profile (the original's goblet and vase,
+//! and a profile with a cusp on the axis), 1e6 rays each of every kind (random, along and near
+//! the axis, nearly horizontal, at the rim and the foot's edge): no false hit (a device hit more
+//! than 1e-4 of the scene's size from the surface), and no missed hit where the ray does not
+//! graze (|n.d| > 0.01) beyond the interim budget below (the curves issue's goal is zero).
+
+mod common;
+
+use clpt::device::upload::PackedScene;
+use clpt::scene::curve::{self, Curve, CurveKind};
+use clpt::scene::parse::parse_scene;
+use glam::{DVec2, DVec3};
+use rand::rngs::SmallRng;
+use rand::{RngExt, SeedableRng};
+
+const HIT_REVSURFACE: f32 = 4.0;
+
+/// The original's goblet profile (case3_wineglass.txt's B-spline, 26 points).
+const GOBLET: [[f64; 2]; 26] = [
+    [0.0, -0.459543],
+    [0.0, -0.459544],
+    [0.0, -0.459545],
+    [-0.351882, -0.426747],
+    [-0.848656, -0.278898],
+    [-1.112097, 0.084005],
+    [-1.164785, 1.105511],
+    [-0.991667, 2.328629],
+    [-1.029301, 2.503360],
+    [-1.088800, 2.345600],
+    [-1.278000, 1.162800],
+    [-1.214800, 0.055200],
+    [-0.915600, -0.381200],
+    [-0.380400, -0.622000],
+    [-0.144000, -0.968400],
+    [-0.096800, -1.480000],
+    [-0.128400, -2.112400],
+    [-0.317200, -2.202800],
+    [-0.994400, -2.262800],
+    [-1.214800, -2.323200],
+    [-1.199200, -2.398400],
+    [-1.057600, -2.458800],
+    [-0.711200, -2.458800],
+    [0.0, -2.458800],
+    [0.0, -2.458801],
+    [0.0, -2.458802],
+];
+
+fn profiles() -> Vec<(&'static str, Curve)> {
+    let pts = |p: &[[f64; 2]]| p.iter().map(|&[x, y]| DVec2::new(x, y)).collect::<Vec<_>>();
+    vec![
+        (
+            "goblet",
+            Curve::new(CurveKind::BSpline, pts(&GOBLET)).unwrap(),
+        ),
+        (
+            "vase",
+            Curve::new(
+                CurveKind::Bezier,
+                pts(&[[-2.0, 2.0], [-4.0, 0.0], [0.0, 0.0], [-2.0, -2.0]]),
+            )
+            .unwrap(),
+        ),
+        // A spindle with a cusp on the axis at both ends.
+        (
+            "cusp",
+            Curve::new(
+                CurveKind::Bezier,
+                pts(&[[0.0, -1.0], [1.5, -0.6], [0.1, 0.0], [1.2, 0.7], [0.0, 1.0]]),
+            )
+            .unwrap(),
+        ),
+    ]
+}
+
+fn scene_text(curve: &Curve) -> String {
+    let kind = match curve.kind {
+        CurveKind::Bezier => "BezierCurve",
+        CurveKind::BSpline => "BsplineCurve",
+    };
+    let controls: String = curve
+        .controls
+        .iter()
+        .map(|p| format!("[ {} {} 0 ] ", p.x, p.y))
+        .collect();
+    format!(
+        "PerspectiveCamera {{ center 0 0 10 direction 0 0 -1 angle 30 width 8 height 8 }}\n\
+         Materials {{ numMaterials 1 Material {{ color 0.5 0.5 0.5 }} }}\n\
+         Group {{ numObjects 1 RevSurface {{ profile {kind} {{ controls {controls} }} }} }}\n"
+    )
+}
+
+fn ray(o: DVec3, d: DVec3, w: DVec3) -> [f32; 9] {
+    let (o, d, w) = (
+        o.as_vec3().to_array(),
+        d.normalize().as_vec3().to_array(),
+        w.normalize().as_vec3().to_array(),
+    );
+    [o[0], o[1], o[2], d[0], d[1], d[2], w[0], w[1], w[2]]
+}
+
+/// The distance from p to the surface: in p's meridian plane, from (r, y) to the profile
+/// revolved there, by a fine scan of the curve refined by ternary search.
+fn distance_to_surface(curve: &Curve, p: DVec3) -> f64 {
+    let q = DVec2::new((p.x * p.x + p.z * p.z).sqrt(), p.y);
+    let dist = |s: f64| {
+        let c = curve.eval(s).0;
+        (DVec2::new(c.x.abs(), c.y) - q).length()
+    };
+    let samples = 4000;
+    let best = (0..=samples)
+        .min_by(|&a, &b| {
+            dist(a as f64 / samples as f64).total_cmp(&dist(b as f64 / samples as f64))
+        })
+        .unwrap_or(0);
+    let (mut lo, mut hi) = (
+        ((best as f64 - 1.0) / samples as f64).max(0.0),
+        ((best as f64 + 1.0) / samples as f64).min(1.0),
+    );
+    for _ in 0..60 {
+        let (m1, m2) = (lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0);
+        if dist(m1) < dist(m2) {
+            hi = m2
+        } else {
+            lo = m1
+        }
+    }
+    dist(0.5 * (lo + hi))
+}
+
+#[test]
+fn device_hits_match_the_f64_reference() {
+    let device = common::device();
+    let mut rng = SmallRng::seed_from_u64(51);
+    for (name, curve) in profiles() {
+        let scene = parse_scene(&scene_text(&curve), name).unwrap();
+        let packed = PackedScene::new(&scene, u64::MAX).unwrap();
+        let bounds = curve.revolution_bounds();
+        let (c, size) = (bounds.center(), bounds.extent().length());
+        let segments = 1_000_000 / 100_000;
+        let (mut missed, mut false_hits, mut compared) = (0usize, 0usize, 0usize);
+        for batch in 0..segments {
+            let rays: Vec<[f32; 9]> = (0..100_000)
+                .map(|i| {
+                    let w = common::random_unit(&mut rng);
+                    let kind = (batch * 100_000 + i) % 6;
+                    let o = c + common::random_unit(&mut rng) * size * rng.random_range(0.8..2.0);
+                    let target = match kind {
+                        // Along and near the axis.
+                        0 => DVec3::new(
+                            rng.random_range(-1e-3..1e-3),
+                            rng.random_range(bounds.lo.y..bounds.hi.y),
+                            rng.random_range(-1e-3..1e-3),
+                        ),
+                        // A point on the surface (rim, foot edge, anywhere), from any side.
+                        1 | 2 => {
+                            let (p, _) = curve.eval(rng.random::<f64>());
+                            curve::revolve(p, rng.random_range(0.0..std::f64::consts::TAU))
+                        }
+                        // The profile's ends and its extreme points: the rim and the foot's edge.
+                        3 => {
+                            let s = if rng.random::<bool>() {
+                                rng.random_range(0.0..0.02)
+                            } else {
+                                rng.random_range(0.98..1.0)
+                            };
+                            curve::revolve(
+                                curve.eval(s).0,
+                                rng.random_range(0.0..std::f64::consts::TAU),
+                            )
+                        }
+                        _ => c + common::random_unit(&mut rng) * size * 0.5,
+                    };
+                    let mut d = target - o;
+                    if kind == 4 {
+                        d.y *= 1e-4; // nearly horizontal
+                    }
+                    ray(o, d, w)
+                })
+                .collect();
+            let got = common::probe_hits(&device, &packed, &rays);
+            for (r, g) in rays.iter().zip(&got) {
+                let o = DVec3::new(r[0] as f64, r[1] as f64, r[2] as f64);
+                let d = DVec3::new(r[3] as f64, r[4] as f64, r[5] as f64);
+                let hits = curve::intersect_reference(&curve, o, d, 0.0, f64::INFINITY);
+                let tol = 1e-4 * (size + o.length());
+                if g[1] == HIT_REVSURFACE {
+                    let t = g[0] as f64;
+                    compared += 1;
+                    // A device hit must lie on the surface (within `tol` of it), and no root
+                    // may lie clearly before it unless the ray grazes there.
+                    if !hits.iter().any(|h| (h.t - t).abs() <= tol)
+                        && distance_to_surface(&curve, o + d * t) > tol
+                    {
+                        false_hits += 1;
+                    }
+                    if let Some(first) = hits.first()
+                        && first.t < t - tol
+                        && first.normal.dot(d).abs() > 1e-2
+                    {
+                        missed += 1;
+                    }
+                } else if let Some(first) = hits.first()
+                    && first.normal.dot(d).abs() > 1e-2
+                {
+                    missed += 1;
+                }
+            }
+        }
+        eprintln!("{name}: {compared} device hits, {missed} missed, {false_hits} false");
+        assert!(compared > 100_000, "{name}: only {compared} hits");
+        assert_eq!(false_hits, 0, "{name}: false hits");
+        // INTERIM (the curves issue is open; its goal is zero): the misses measured when this
+        // test was written, per 1e6 rays, so that nothing gets worse meanwhile. They are pairs
+        // of roots closer than a leaf can separate (rays clipping a bulge or the rim) and, on
+        // the cusp profile, rays through its tips on the axis.
+        let interim_budget = match name {
+            "goblet" => 4,
+            "vase" => 18,
+            _ => 745,
+        };
+        assert!(
+            missed <= interim_budget,
+            "{name}: {missed} missed, interim budget {interim_budget}"
+        );
+    }
+}
