@@ -18,16 +18,15 @@ seed=seed/testcases
 export CLPT_DEVICE=NVIDIA
 {
   echo "## H200, cold build (CUDA_CACHE_DISABLE=1), 256 spp"
-  CUDA_CACHE_DISABLE=1 ./clpt bench scenes/smallpt.txt $seed/case2_softshadows_colorbleeding.txt $seed/case0_texture.txt scenes/textures.txt scenes/meshes.txt $seed/case1_dof_mesh.txt tools/dragon_rays.txt --spp 256
-  echo "## H200, warm, 1024 spp"
-  ./clpt bench scenes/smallpt.txt $seed/case2_softshadows_colorbleeding.txt $seed/case0_texture.txt scenes/textures.txt scenes/meshes.txt tools/dragon_rays.txt --spp 1024
+  CUDA_CACHE_DISABLE=1 ./clpt bench scenes/smallpt.txt $seed/case2_softshadows_colorbleeding.txt $seed/case0_texture.txt scenes/textures.txt scenes/meshes.txt $seed/case1_dof_mesh.txt $seed/case3_wineglass.txt scenes/goblet.txt tools/dragon_rays.txt --spp 256
 } 2>&1 | grep -v warning > $OUT/bench.txt; cat $OUT/bench.txt
 {
-  echo "## case1_dof_mesh.txt at the original's 2560x1440, 800 spp (original: 9169 s on an RTX 2060 Super)"
-  ./clpt render $seed/case1_dof_mesh.txt --spp 800 -o $OUT/case1_800spp.png -v -q 2>&1
-  echo "## scenes/meshes.txt, 1280x720, 4096 spp"
-  ./clpt render scenes/meshes.txt --spp 4096 -o $OUT/meshes_4096spp.png -q 2>&1
-  echo "## case0_texture.txt at 2560x1440, 800 spp"
+  echo "## case3_wineglass.txt at the original's 1920x1080, 1000 spp (original: 9653 s on an RTX 2060 Super)"
+  ./clpt render $seed/case3_wineglass.txt --spp 1000 -o $OUT/case3_1000spp.png -v -q 2>&1
+  echo "## scenes/goblet.txt, 1920x1080, 1000 spp"
+  ./clpt render scenes/goblet.txt --spp 1000 -o $OUT/goblet_1000spp.png -q 2>&1
+  echo "## case1 and case0 at their original sizes and samples"
+  ./clpt render $seed/case1_dof_mesh.txt --spp 800 -o /tmp/case1.png -q 2>&1
   ./clpt render $seed/case0_texture.txt --spp 800 -o /tmp/case0.png -q 2>&1
   ./clpt render scenes/smallpt.txt --spp 1024 --seed 1 -o /tmp/det_a.pfm -q 2>/dev/null
   ./clpt render scenes/smallpt.txt --spp 1024 --seed 1 -o /tmp/det_b.pfm -q 2>/dev/null
