@@ -32,6 +32,8 @@
 //!   through the two poles.
 //! - 1e5 goblet rays timed.
 
+mod common;
+
 use clpt::scene::curve::{
     Curve, CurveKind, HORIZONTAL_THRESHOLD, RevHit, intersect_reference, revolve,
 };
@@ -39,36 +41,6 @@ use glam::{DVec2, DVec3};
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
 use std::time::Instant;
-
-/// case3_wineglass.txt's BsplineCurve (x, y; z is 0 there).
-const GOBLET: [[f64; 2]; 26] = [
-    [0.000000, -0.459543],
-    [0.000000, -0.459544],
-    [0.000000, -0.459545],
-    [-0.351882, -0.426747],
-    [-0.848656, -0.278898],
-    [-1.112097, 0.084005],
-    [-1.164785, 1.105511],
-    [-0.991667, 2.328629],
-    [-1.029301, 2.503360],
-    [-1.088800, 2.345600],
-    [-1.278000, 1.162800],
-    [-1.214800, 0.055200],
-    [-0.915600, -0.381200],
-    [-0.380400, -0.622000],
-    [-0.144000, -0.968400],
-    [-0.096800, -1.480000],
-    [-0.128400, -2.112400],
-    [-0.317200, -2.202800],
-    [-0.994400, -2.262800],
-    [-1.214800, -2.323200],
-    [-1.199200, -2.398400],
-    [-1.057600, -2.458800],
-    [-0.711200, -2.458800],
-    [0.000000, -2.458800],
-    [0.000000, -2.458801],
-    [0.000000, -2.458802],
-];
 
 /// scene08_core.txt's BezierCurve.
 const VASE: [[f64; 2]; 4] = [[-2.0, 2.0], [-4.0, 0.0], [0.0, 0.0], [-2.0, -2.0]];
@@ -78,7 +50,7 @@ fn points(p: &[[f64; 2]]) -> Vec<DVec2> {
 }
 
 fn goblet() -> Curve {
-    Curve::new(CurveKind::BSpline, points(&GOBLET)).expect("goblet")
+    Curve::new(CurveKind::BSpline, points(&common::GOBLET)).expect("goblet")
 }
 
 fn vase() -> Curve {
