@@ -173,7 +173,7 @@ inline void rev_object_intersect(const Scene* sc, uint index, float3 o, float3 d
 
 /* The hit point moved onto the surface at the profile parameter found, its normal (the
  * profile's normal (y', -x') revolved, turned with the profile where x < 0) and an error
- * bound covering the Newton iteration's tolerance. */
+ * bound covering the Newton iteration's acceptance band. */
 inline void rev_surface(const Scene* sc, __global const RevSurface* r, Hit hit, float3 p_ray,
                         float3* p, float3* p_error, float3* n) {
     __global const float2* pts = sc->rev_points + r->first_point + hit.prim * (r->degree + 1u);
@@ -185,7 +185,11 @@ inline void rev_surface(const Scene* sc, __global const RevSurface* r, Hit hit, 
     *p = fabs(s.x) * radial + (float3)(0.0f, s.y, 0.0f);
     const float sign = s.x < 0.0f ? -1.0f : 1.0f;
     *n = normalize(ds.y * radial - sign * ds.x * (float3)(0.0f, 1.0f, 0.0f));
-    *p_error = (float3)(4e-6f * (length(*p) + length(p_ray - *p)) + 1e-6f * length(ds)) +
+    /* Newton accepts a root whose residuals are within 1e-5 of their terms' size
+     * (revsurface.h): the point is known to that band, and a ray spawned closer than it
+     * could converge back onto the surface it leaves. The profile's speed |ds| keeps the
+     * band from vanishing near the object's origin. */
+    *p_error = (float3)(2e-5f * (length(*p) + fabs(s.x) + fabs(s.y) + length(ds))) +
                fabs(p_ray - *p);
 }
 #endif

@@ -3,7 +3,8 @@
 //! and a profile with a cusp on the axis), 1e6 rays each of every kind (random, along and near
 //! the axis, nearly horizontal, at the rim and the foot's edge): no false hit (a device hit more
 //! than 1e-4 of the scene's size from the surface), and no missed hit where the ray does not
-//! graze (|n.d| > 0.01) beyond the interim budget below (the curves issue's goal is zero).
+//! graze (|n.d| > 0.01) beyond the interim budget below (the curves issue's goal is zero); rays
+//! spawned from every hit must not find the surface they leave.
 
 mod common;
 
@@ -110,6 +111,7 @@ fn device_hits_match_the_f64_reference() {
         let (c, size) = (bounds.center(), bounds.extent().length());
         let segments = 1_000_000 / 100_000;
         let (mut missed, mut false_hits, mut compared) = (0usize, 0usize, 0usize);
+        let mut self_hits = 0usize;
         for batch in 0..segments {
             let rays: Vec<[f32; 9]> = (0..100_000)
                 .map(|i| {
@@ -158,6 +160,22 @@ fn device_hits_match_the_f64_reference() {
                 if g[1] == HIT_REVSURFACE {
                     let t = g[0] as f64;
                     compared += 1;
+                    // The ray spawned from the hit towards w must not find the surface it
+                    // leaves: a hit closer than 1e-4 of the size with no root there is a
+                    // self-hit.
+                    let w = DVec3::new(r[6] as f64, r[7] as f64, r[8] as f64);
+                    let p = DVec3::new(g[3] as f64, g[4] as f64, g[5] as f64);
+                    let n = DVec3::new(g[6] as f64, g[7] as f64, g[8] as f64);
+                    // Spawned rays that graze (|w.n| < 0.05) are exempt, as grazing rays are
+                    // from the missed-hit count.
+                    if g[13] == HIT_REVSURFACE
+                        && w.dot(n).abs() >= 0.05
+                        && (g[12] as f64) < 1e-4 * size
+                        && curve::intersect_reference(&curve, p, w, 1e-9 * size, 2e-4 * size)
+                            .is_empty()
+                    {
+                        self_hits += 1;
+                    }
                     // A device hit must lie on the surface (within `tol` of it), and no root
                     // may lie clearly before it unless the ray grazes there.
                     if !hits.iter().any(|h| (h.t - t).abs() <= tol)
@@ -178,12 +196,21 @@ fn device_hits_match_the_f64_reference() {
                 }
             }
         }
-        eprintln!("{name}: {compared} device hits, {missed} missed, {false_hits} false");
+        eprintln!(
+            "{name}: {compared} device hits, {missed} missed, {false_hits} false, {self_hits} self-hits"
+        );
         assert!(compared > 100_000, "{name}: only {compared} hits");
-        results.push((name, missed, false_hits));
+        results.push((name, missed, false_hits, self_hits));
     }
-    for (name, missed, false_hits) in results {
+    for (name, missed, false_hits, self_hits) in results {
         assert_eq!(false_hits, 0, "{name}: false hits");
+        // INTERIM as the misses below: one spawned ray in 685,000 on the cusp profile (PoCL)
+        // re-found its surface at t = 5e-5; none on the goblet and the vase.
+        let self_hit_budget = if name == "cusp" { 1 } else { 0 };
+        assert!(
+            self_hits <= self_hit_budget,
+            "{name}: {self_hits} spawned rays hit the surface they leave"
+        );
         // INTERIM (the curves issue is open; its goal is zero): misses per 1e6 rays measured
         // when this test was written, the larger of PoCL 3.1 and an H200's NVIDIA OpenCL
         // (goblet 4 and 4, vase 18 and 24, cusp 745 and 753), bounded so that nothing gets
