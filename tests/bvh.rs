@@ -6,7 +6,7 @@
 
 use clpt::accel::aabb::Aabb;
 use clpt::accel::bvh::{self, Bvh, MAX_DEPTH, morton_code};
-use clpt::device::layout::{BVH_EMPTY, BVH_LEAF, BvhNode};
+use clpt::device::layout::{BVH_EMPTY, BVH_LEAF};
 use glam::DVec3;
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
@@ -63,19 +63,6 @@ fn random_in(rng: &mut SmallRng, b: &Aabb) -> DVec3 {
             rng.random::<f64>(),
             rng.random::<f64>(),
         )
-}
-
-/// Child `k`'s stored box, widened to f64.
-fn stored_box(node: &BvhNode, k: usize) -> Aabb {
-    let (lo, hi) = if k == 0 {
-        (node.lo0, node.hi0)
-    } else {
-        (node.lo1, node.hi1)
-    };
-    Aabb {
-        lo: DVec3::from(lo.map(f64::from)),
-        hi: DVec3::from(hi.map(f64::from)),
-    }
 }
 
 fn bounded(b: &Aabb) -> bool {
@@ -185,9 +172,9 @@ fn check_structure(bvh: &Bvh, boxes: &[Aabb]) {
                 exact[c as usize]
             };
             assert!(
-                stored_box(node, k).contains(&below),
+                bvh::child_box(node, k).contains(&below),
                 "node {index} child {k}: {:?} does not contain {below:?}",
-                stored_box(node, k)
+                bvh::child_box(node, k)
             );
             exact[index] = exact[index].union(below);
         }

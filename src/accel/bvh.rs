@@ -394,7 +394,7 @@ fn flatten(children: &[[u32; 2]], boxes: &[Aabb]) -> Vec<BvhNode> {
 }
 
 /// Child `k`'s stored box, widened to f64.
-fn child_box(node: &BvhNode, k: usize) -> Aabb {
+pub fn child_box(node: &BvhNode, k: usize) -> Aabb {
     let (lo, hi) = if k == 0 {
         (node.lo0, node.hi0)
     } else {
