@@ -159,9 +159,9 @@ inline void rev_object_intersect(const Scene* sc, uint index, float3 o, float3 d
     float scale;
     to_object_space(sc, r->transform, &o, &d, &scale);
     const float t_max = hit->t * scale;
-    uint seg = 0u;
+    uint seg = 0u, work = 0u;
     float u = 0.0f;
-    const float t = revsurface_intersect(r, sc->rev_points, o, d, t_max, &seg, &u);
+    const float t = revsurface_intersect(r, sc->rev_points, o, d, t_max, &seg, &u, &work);
     if (t < t_max) {
         hit->t = t / scale;
         hit->kind = HIT_REVSURFACE;
@@ -177,20 +177,40 @@ inline void rev_object_intersect(const Scene* sc, uint index, float3 o, float3 d
 inline void rev_surface(const Scene* sc, __global const RevSurface* r, Hit hit, float3 p_ray,
                         float3* p, float3* p_error, float3* n) {
     __global const float2* pts = sc->rev_points + r->first_point + hit.prim * (r->degree + 1u);
+    float size = 0.0f;
+    for (uint i = 0u; i <= r->degree; ++i) {
+        size = fmax(size, fabs(pts[i].x) + fabs(pts[i].y));
+    }
     float2 s, ds;
     bezier_eval(pts, r->degree, hit.b1, &s, &ds);
     const float rho = sqrt(p_ray.x * p_ray.x + p_ray.z * p_ray.z);
     const float3 radial = rho > 0.0f ? (float3)(p_ray.x / rho, 0.0f, p_ray.z / rho)
                                      : (float3)(1.0f, 0.0f, 0.0f);
     *p = fabs(s.x) * radial + (float3)(0.0f, s.y, 0.0f);
+    /* Where the profile's speed all but vanishes (repeated control points: the original's
+     * goblet meets the axis through three points 1e-6 apart) the derivative's direction is
+     * that of rounding-sized wiggles. The tangent is then the secant to a point at least
+     * 1e-4 of the segment's size away, towards the segment's interior. */
+    float2 tangent = ds;
+    if (length(ds) < 1e-2f * size) {
+        const float dir = hit.b1 < 0.5f ? 1.0f : -1.0f;
+        for (float du = 1.0f / 64.0f; du <= 0.5f; du *= 2.0f) {
+            float2 s2, ds2;
+            bezier_eval(pts, r->degree, hit.b1 + dir * du, &s2, &ds2);
+            tangent = dir * (s2 - s);
+            if (length(s2 - s) >= 1e-4f * size) {
+                break;
+            }
+        }
+    }
     const float sign = s.x < 0.0f ? -1.0f : 1.0f;
-    *n = normalize(ds.y * radial - sign * ds.x * (float3)(0.0f, 1.0f, 0.0f));
-    /* Newton accepts a root whose residuals are within 1e-5 of their terms' size
-     * (revsurface.h): the point is known to that band, and a ray spawned closer than it
-     * could converge back onto the surface it leaves. The profile's speed |ds| keeps the
-     * band from vanishing near the object's origin. */
-    *p_error = (float3)(2e-5f * (length(*p) + fabs(s.x) + fabs(s.y) + length(ds))) +
-               fabs(p_ray - *p);
+    *n = normalize(tangent.y * radial - sign * tangent.x * (float3)(0.0f, 1.0f, 0.0f));
+    /* The solvers accept a root whose residuals are within 1e-5 of their terms' size, the
+     * segment's largest coordinates among them (rev_residuals_ok), and sub-curves within
+     * a few roundings of a point by where the ray enters their box: the point is known to
+     * that band, and a ray spawned closer than it could find the surface it leaves. The
+     * profile's speed |ds| keeps the band from vanishing near the object's origin. */
+    *p_error = (float3)(2e-5f * (length(*p) + size + length(ds))) + fabs(p_ray - *p);
 }
 #endif
 

@@ -5,25 +5,40 @@
  * S(u, theta) = (x(u) cos theta, y(u), x(u) sin theta), the profile revolved about the y axis.
  *
  * Why this way: the original started Newton's method from 30 random (u, theta) pairs per ray
- * and still missed hits. Here the search is deterministic: for each segment, sub-segments are
- * visited by recursive halving, and a sub-segment is discarded only when the ray provably
- * cannot meet the solid of revolution of its control polygon's hull (an annulus of radii
- * [r_min, r_max] between heights [y_min, y_max]: the ray's height interval there, and the
- * quadratic r^2(t) on that interval, must meet it). Sub-segments small enough are solved by a
- * two-dimensional Newton iteration on (t, u):
- *   g1 = y(u) - (o.y + t d.y) = 0,   g2 = (o.x + t d.x)^2 + (o.z + t d.z)^2 - x(u)^2 = 0,
- * which needs no special case for horizontal rays (Kajiya 1983 reduces the problem to u the
- * same way).
+ * and still missed hits. Here every root is isolated before it is solved for. As in Kajiya
+ * ("New techniques for ray tracing procedurally defined objects", SIGGRAPH 1983) the problem
+ * is reduced to one unknown, the profile parameter u: the ray meets the surface at a profile
+ * point (x(u), y(u)) exactly when, at the height y(u), its distance from the axis is |x(u)|.
+ * Multiplied by d.y^2 so that no division is needed,
+ *     F(u) = |m + y(u) d_xz|^2 - d.y^2 x(u)^2,   m = d.y o_xz - o.y d_xz,
+ * is a polynomial of degree 2n in u whose roots are those profile points. On a sub-segment
+ * F's Bernstein coefficients follow from the sub-curve's control points, and Bernstein
+ * polynomials obey Descartes' rule of signs (the variation-diminishing property behind Lane
+ * and Riesenfeld's subdivision root finding, 1981): no sign change among the coefficients
+ * proves that there is no root there, one proves that there is exactly one. So sub-segments are
+ * halved (depth first) until each holds no root, which is discarded, or one, which is solved
+ * by safeguarded Newton on F and polished by Newton on (t, u). Coefficients are classed as
+ * positive, negative or "within rounding of zero" by a bound on their rounding error, and a
+ * sub-segment is only decided on certain signs. Rays that keep their height make F a square
+ * (two roots at one u), and rays touching the surface make a double root: these sub-segments
+ * never decide and end at REV_MAX_DEPTH, 2^-10 of a segment, where the profile is a straight
+ * chord to within about 1e-7 of its size; the ray is met with the cone of that chord, and
+ * Newton on (t, u) polishes the roots. Where the profile's speed vanishes (repeated control
+ * points) a stretch of it lies within rounding of a point: such sub-curves end the halving
+ * as soon as they are that small. A second test, the ray's height and radius range against
+ * the hull's annulus, prunes sub-segments beyond the nearest hit so far.
+ *
+ * Numbers: f32 throughout. Every tolerance below is a stated multiple of the rounding of the
+ * terms involved, and the hit's error bound (rev_surface in objects.h) covers the widest.
  */
 #ifndef CLPT_REVSURFACE_H
 #define CLPT_REVSURFACE_H
 
 #define REV_MAX_DEGREE 7
-#define REV_STACK 32
-#define REV_LEAF_DEPTH 7      /* sub-segments of 1/128 of a segment are solved directly */
-#define REV_MAX_DEPTH 10      /* where that finds nothing but the hull still admits the ray,
-                               * halving goes on down to 1/1024 */
-#define REV_NEWTON_STEPS 12
+#define REV_MAX_DEPTH 10
+#define REV_STACK (REV_MAX_DEPTH + 2)
+#define REV_SOLVE_STEPS 40
+#define REV_NEWTON_STEPS 8
 
 /* Bernstein evaluation by de Casteljau: point and derivative at u of the degree-n curve. */
 inline void bezier_eval(__global const float2* p, uint n, float u, float2* point, float2* deriv) {
@@ -42,9 +57,8 @@ inline void bezier_eval(__global const float2* p, uint n, float u, float2* point
     *point = b[0];
 }
 
-/* The hull box (x_lo, x_hi, y_lo, y_hi) of the sub-curve on [u0, u1] (de Casteljau splits). */
-inline float4 bezier_hull(__global const float2* p, uint n, float u0, float u1) {
-    float2 b[REV_MAX_DEGREE + 1];
+/* The control points b of the sub-curve on [u0, u1] (two de Casteljau splits). */
+inline void bezier_sub(__global const float2* p, uint n, float u0, float u1, float2* b) {
     for (uint i = 0u; i <= n; ++i) {
         b[i] = p[i];
     }
@@ -60,33 +74,166 @@ inline float4 bezier_hull(__global const float2* p, uint n, float u0, float u1) 
             b[i] = mix(b[i], b[i + 1u], s);
         }
     }
-    float4 box = (float4)(b[0].x, b[0].x, b[0].y, b[0].y);
-    for (uint i = 1u; i <= n; ++i) {
-        box = (float4)(fmin(box.x, b[i].x), fmax(box.y, b[i].x), fmin(box.z, b[i].y),
-                       fmax(box.w, b[i].y));
-    }
-    return box;
 }
 
-/* Can the ray, for t in (t_lo, t_hi), come into the solid of revolution of this box? */
+/* The ray in the terms F needs, and the rounding bounds of those terms. */
+typedef struct RevRay {
+    float3 o, d;
+    float2 m;        /* d.y o_xz - o.y d_xz */
+    float2 dxz;
+    float dy2;
+    float a;         /* |d_xz|^2 */
+    float t_c;       /* where the ray passes nearest the axis (0 for vertical rays) */
+    float rho2;      /* its squared distance from the axis there */
+    float p_err;     /* bound on the rounding of m + y d_xz, for |y| up to the profile's */
+    float x_err;     /* bound on the rounding of a sub-curve's x */
+    float y_scale;   /* |o.y| + the profile's largest |y|: the size of the terms g1 cancels */
+    float x_max;     /* the profile's largest |x| */
+    float leaf_size; /* sub-curves this small are solved as chords whatever their depth */
+} RevRay;
+
+inline RevRay rev_ray(float3 o, float3 d) {
+    RevRay r;
+    r.o = o;
+    r.d = d;
+    r.dxz = (float2)(d.x, d.z);
+    r.m = d.y * (float2)(o.x, o.z) - o.y * r.dxz;
+    r.dy2 = d.y * d.y;
+    /* Equations in t are solved about t_c, where the ray's radius is least: expanded about
+     * the origin, they cancel |o_xz|^2 against the small radii of the surface. The least
+     * radius comes from the cross product, which does not cancel. */
+    r.a = d.x * d.x + d.z * d.z;
+    const float cross = o.x * d.z - o.z * d.x;
+    r.t_c = r.a > 0.0f ? -(o.x * d.x + o.z * d.z) / r.a : 0.0f;
+    r.rho2 = r.a > 0.0f ? cross * cross / r.a : o.x * o.x + o.z * o.z;
+    return r;
+}
+
+/* The rounding bounds for a segment whose control points are at most x_max, y_max in size.
+ * Sub-curve points carry at most 2n roundings of that size (two splits of n levels, each a
+ * convex combination): 1e-6 of it covers degree 7. m carries two roundings of its terms. */
+inline void rev_ray_segment(RevRay* r, __global const float2* p, uint n) {
+    float x_max = 0.0f, y_max = 0.0f;
+    for (uint i = 0u; i <= n; ++i) {
+        x_max = fmax(x_max, fabs(p[i].x));
+        y_max = fmax(y_max, fabs(p[i].y));
+    }
+    const float3 o = r->o, d = r->d;
+    const float dxz_l1 = fabs(d.x) + fabs(d.z);
+    r->p_err = 0x1.0p-22f * (fabs(d.y) * (fabs(o.x) + fabs(o.z)) + fabs(o.y) * dxz_l1) +
+               1e-6f * y_max * dxz_l1;
+    r->x_err = 1e-6f * x_max;
+    r->y_scale = fabs(o.y) + y_max;
+    r->x_max = x_max;
+    /* Four times the rounding of the sub-curves' points: halving further would only split
+     * noise. Where the profile's speed vanishes (repeated control points at the axis, as the
+     * original's goblet has) F stays within rounding of zero over a long stretch of u, and
+     * this ends the halving there after a few steps. */
+    r->leaf_size = 4e-6f * (x_max + y_max);
+}
+
+/* F at a profile point s, and its derivative for the profile's derivative ds. */
+inline float rev_f(const RevRay* r, float2 s, float2 ds, float* df) {
+    const float2 q = r->m + s.y * r->dxz;
+    *df = 2.0f * (dot(q, ds.y * r->dxz) - r->dy2 * s.x * ds.x);
+    return dot(q, q) - r->dy2 * s.x * s.x;
+}
+
+/* What F's Bernstein coefficients on a sub-segment say. */
+#define REV_NONE 0   /* certainly no root */
+#define REV_ONE 1    /* certainly exactly one root, a simple one */
+#define REV_SPLIT 2  /* undecided */
+
+inline int rev_classify(const RevRay* r, const float2* b, uint n, float* f0) {
+    /* Unnormalised coefficients: the k-th is C(2n, k) times the Bernstein coefficient, the
+     * sum over i + j = k of C(n, i) C(n, j) g_ij with g_ij = q_i.q_j - d.y^2 x_i x_j; the
+     * positive factor changes no sign. */
+    float c[2 * REV_MAX_DEGREE + 1], e[2 * REV_MAX_DEGREE + 1];
+    float2 q[REV_MAX_DEGREE + 1];
+    float qa[REV_MAX_DEGREE + 1], binom[REV_MAX_DEGREE + 1];
+    binom[0] = 1.0f;
+    for (uint i = 0u; i <= n; ++i) {
+        q[i] = r->m + b[i].y * r->dxz;
+        qa[i] = length(q[i]);
+        if (i > 0u) {
+            binom[i] = binom[i - 1u] * (float)(n + 1u - i) / (float)i;
+        }
+    }
+    for (uint k = 0u; k <= 2u * n; ++k) {
+        c[k] = 0.0f;
+        e[k] = 0.0f;
+    }
+    const float pe = r->p_err, xe = r->x_err, dy2 = r->dy2;
+    for (uint i = 0u; i <= n; ++i) {
+        for (uint j = i; j <= n; ++j) {
+            const float w = binom[i] * binom[j] * (i == j ? 1.0f : 2.0f);
+            const float xi = fabs(b[i].x), xj = fabs(b[j].x);
+            const float g = dot(q[i], q[j]) - dy2 * b[i].x * b[j].x;
+            /* Rounding of q and x propagated through the products, and of the products and
+             * the sums themselves (1e-6 of their magnitude). */
+            const float err = pe * (qa[i] + qa[j] + pe) + dy2 * xe * (xi + xj + xe) +
+                              1e-6f * (qa[i] * qa[j] + dy2 * xi * xj);
+            c[i + j] += w * g;
+            e[i + j] += w * err;
+        }
+    }
+    *f0 = c[0];
+    /* Signs of the certain coefficients; an uncertain run between two equal signs could hide
+     * two sign changes, and uncertain ends leave the count open. */
+    int prev = 0, variations = 0;
+    bool pending = false, ambiguous = false;
+    for (uint k = 0u; k <= 2u * n; ++k) {
+        const int s = c[k] > e[k] ? 1 : (c[k] < -e[k] ? -1 : 0);
+        if (s == 0) {
+            pending = true;
+            if (k == 0u || k == 2u * n) {
+                ambiguous = true;
+            }
+            continue;
+        }
+        if (prev != 0 && s != prev) {
+            ++variations;
+        } else if (prev != 0 && pending) {
+            ambiguous = true;
+        }
+        pending = false;
+        prev = s;
+    }
+    if (prev == 0) {
+        return REV_SPLIT; /* every coefficient within rounding of zero */
+    }
+    if (variations == 0 && !ambiguous) {
+        return REV_NONE;
+    }
+    return (variations == 1 && !ambiguous) ? REV_ONE : REV_SPLIT;
+}
+
+/* Narrows [t0, t1] to where the ray is between the heights y_lo - pad and y_hi + pad of the
+ * box (x_lo, x_hi, y_lo, y_hi); false when nothing is left. */
+inline bool height_slab(float4 box, float pad, float3 o, float3 d, float* t0, float* t1) {
+    if (d.y != 0.0f) {
+        const float ta = (box.z - pad - o.y) / d.y;
+        const float tb = (box.w + pad - o.y) / d.y;
+        *t0 = fmax(*t0, fmin(ta, tb));
+        *t1 = fmin(*t1, fmax(ta, tb));
+    } else if (o.y < box.z - pad || o.y > box.w + pad) {
+        return false;
+    }
+    return *t0 <= *t1;
+}
+
+/* Can the ray, for t in (t_lo, t_hi), come into the solid of revolution of the hull box
+ * (x_lo, x_hi, y_lo, y_hi)? */
 inline bool annulus_reachable(float4 box, float3 o, float3 d, float t_lo, float t_hi) {
     /* A little slack for the rounding of the hull and of r^2(t). */
     const float pad = 1e-5f * (fabs(box.y) + fabs(box.x) + fabs(box.z) + fabs(box.w)) + 1e-30f;
     float t0 = t_lo, t1 = t_hi;
-    if (d.y != 0.0f) {
-        const float ta = (box.z - pad - o.y) / d.y;
-        const float tb = (box.w + pad - o.y) / d.y;
-        t0 = fmax(t0, fmin(ta, tb));
-        t1 = fmin(t1, fmax(ta, tb));
-    } else if (o.y < box.z - pad || o.y > box.w + pad) {
-        return false;
-    }
-    if (!(t0 <= t1)) {
+    if (!height_slab(box, pad, o, d, &t0, &t1)) {
         return false;
     }
     const float r_hi = fmax(fabs(box.x), fabs(box.y)) + pad;
-    const float r_lo = (box.x > 0.0f || box.y < 0.0f) ? fmax(0.0f, fmin(fabs(box.x), fabs(box.y)) - pad)
-                                                     : 0.0f;
+    const bool ring = box.x > 0.0f || box.y < 0.0f; /* the box does not span the axis */
+    const float r_lo = ring ? fmax(0.0f, fmin(fabs(box.x), fabs(box.y)) - pad) : 0.0f;
     /* r^2(t) = a t^2 + b t + c, its least and greatest values on [t0, t1]. */
     const float a = d.x * d.x + d.z * d.z;
     const float b = 2.0f * (o.x * d.x + o.z * d.z);
@@ -110,188 +257,323 @@ inline bool annulus_reachable(float4 box, float3 o, float3 d, float t_lo, float 
     return !(q_min > r_hi * r_hi || q_max < r_lo * r_lo);
 }
 
-/* Newton on (t, u) from the middle of [u0, u1]; true with the root when it converges inside
- * [u0, u1] x (0, t_max). In f32 the residuals carry rounding noise of about 1e-7 of the
- * magnitudes involved, so steps may never shrink below that: the iteration stops on a step
- * small against the interval, and the root is judged by its residuals, scaled to the size of
- * the terms they cancel. */
-inline bool rev_newton(__global const float2* p, uint n, float3 o, float3 d, float u0, float u1,
-                       float t_guess, float t_max, float* t_out, float* u_out) {
-    float u = 0.5f * (u0 + u1);
-    float t = t_guess;
-    float g1 = 0.0f, g2 = 0.0f;
-    float2 s = (float2)(0.0f), ds = (float2)(0.0f);
+/* The residuals of (t, u): the ray's height less the profile's, its squared radius less the
+ * profile's. True when both are within their rounding: 1e-5 of the size of the terms they
+ * cancel (f32 carries noise of about 1e-7 of those), where for the radius the ray point's own
+ * position, a few roundings of |o| + |t d| in each coordinate, bounds how well r^2 can match
+ * near the axis. */
+inline bool rev_residuals_ok(const RevRay* r, float2 s, float t) {
+    const float qx = r->o.x + t * r->d.x, qz = r->o.z + t * r->d.z;
+    const float g1 = s.y - (r->o.y + t * r->d.y);
+    const float rho2 = qx * qx + qz * qz;
+    const float g2 = rho2 - s.x * s.x;
+    const float y_scale = r->y_scale + fabs(t * r->d.y) + 1e-30f;
+    const float pos_err = 1e-6f * (fabs(r->o.x) + fabs(r->o.z) +
+                                   fabs(t) * (fabs(r->d.x) + fabs(r->d.z)) + r->x_max);
+    const float r_tol = 1e-5f * (rho2 + s.x * s.x) +
+                        2.0f * (sqrt(rho2) + fabs(s.x) + pos_err) * pos_err + 1e-30f;
+    return fabs(g1) <= 1e-5f * y_scale && fabs(g2) <= r_tol;
+}
+
+/* Newton on (t, u) for g1 = y(u) - (o.y + t d.y) = 0, g2 = |o_xz + t d_xz|^2 - x(u)^2 = 0 from
+ * (t, u); true with the root when it converges with u in [u0, u1] and t in (0, t_max). */
+inline bool rev_newton(__global const float2* p, uint n, const RevRay* r, float u0, float u1,
+                       float t, float u, float t_max, float* t_out, float* u_out, uint* work) {
+    const float3 o = r->o, d = r->d;
+    float2 s, ds;
     for (int i = 0; i < REV_NEWTON_STEPS; ++i) {
+        ++*work;
         bezier_eval(p, n, u, &s, &ds);
         /* r^2 of the ray point evaluated directly, not as a t^2 + b t + c, which cancels
          * near the axis. */
         const float qx = o.x + t * d.x, qz = o.z + t * d.z;
-        g1 = s.y - (o.y + t * d.y);
-        g2 = qx * qx + qz * qz - s.x * s.x;
+        const float g1 = s.y - (o.y + t * d.y);
+        const float g2 = qx * qx + qz * qz - s.x * s.x;
         /* Jacobian [[dg1/dt, dg1/du], [dg2/dt, dg2/du]]. */
         const float j11 = -d.y, j12 = ds.y;
         const float j21 = 2.0f * (qx * d.x + qz * d.z), j22 = -2.0f * s.x * ds.x;
         const float det = j11 * j22 - j12 * j21;
         if (det == 0.0f || !isfinite(det)) {
-            return false;
+            break;
         }
         const float dt = (g1 * j22 - g2 * j12) / det;
         const float du = (g2 * j11 - g1 * j21) / det;
-        t -= dt;
-        u -= du;
-        if (!isfinite(t) || !isfinite(u) || u < u0 - (u1 - u0) || u > u1 + (u1 - u0)) {
-            return false; /* left the neighbourhood: that root is another leaf's */
+        const float t_next = t - dt, u_next = u - du;
+        if (!isfinite(t_next) || !isfinite(u_next) || u_next < u0 - (u1 - u0) ||
+            u_next > u1 + (u1 - u0)) {
+            break; /* the step left the sub-segment: keep the last point */
         }
-        if (fabs(du) < 1e-6f * (u1 - u0) && fabs(dt) < 1e-6f * fmax(1.0f, fabs(t))) {
+        t = t_next;
+        u = u_next;
+        if (fabs(du) <= 1e-7f && fabs(dt) <= 1e-7f * fmax(1.0f, fabs(t))) {
+            break;
+        }
+    }
+    u = clamp(u, u0, u1);
+    bezier_eval(p, n, u, &s, &ds);
+    if (!rev_residuals_ok(r, s, t) || !(t > 0.0f && t < t_max)) {
+        return false;
+    }
+    *t_out = t;
+    *u_out = u;
+    return true;
+}
+
+/* Where the ray meets the circle of the profile point s: from its height when it climbs, else
+ * (and where that is ill-conditioned) the crossing of the cylinder of radius |s.x| whose height
+ * is nearer s.y. */
+inline float rev_t_at(const RevRay* r, float2 s) {
+    const float3 o = r->o, d = r->d;
+    float best = d.y != 0.0f ? (s.y - o.y) / d.y : INFINITY;
+    float best_err = INFINITY;
+    if (isfinite(best)) {
+        const float qx = o.x + best * d.x, qz = o.z + best * d.z;
+        best_err = fabs(sqrt(qx * qx + qz * qz) - fabs(s.x));
+    }
+    if (r->a > 0.0f && s.x * s.x >= r->rho2) {
+        const float w = sqrt((s.x * s.x - r->rho2) / r->a);
+        const float roots[2] = {r->t_c - w, r->t_c + w};
+        for (int k = 0; k < 2; ++k) {
+            const float err = fabs(o.y + roots[k] * d.y - s.y);
+            if (err < best_err) {
+                best_err = err;
+                best = roots[k];
+            }
+        }
+    }
+    return best;
+}
+
+/* The one root of F on [u0, u1] (F(u0) has the sign of f0): Newton on F kept inside a
+ * shrinking bracket, then Newton on (t, u) from there. */
+inline bool rev_solve_one(__global const float2* p, uint n, const RevRay* r, float u0, float u1,
+                          float f0, float t_max, float* t_out, float* u_out, uint* work) {
+    float lo = u0, hi = u1, u = 0.5f * (u0 + u1);
+    const bool lo_positive = f0 > 0.0f;
+    float2 s, ds;
+    for (int i = 0; i < REV_SOLVE_STEPS; ++i) {
+        ++*work;
+        bezier_eval(p, n, u, &s, &ds);
+        float df;
+        const float f = rev_f(r, s, ds, &df);
+        if ((f > 0.0f) == lo_positive) {
+            lo = u;
+        } else {
+            hi = u;
+        }
+        float next = u - f / df;
+        if (!(next > lo && next < hi)) {
+            next = 0.5f * (lo + hi);
+        }
+        const bool done = fabs(next - u) <= 1e-7f || hi - lo <= 1e-7f;
+        u = next;
+        if (done) {
             break;
         }
     }
     bezier_eval(p, n, u, &s, &ds);
-    const float qx = o.x + t * d.x, qz = o.z + t * d.z;
-    g1 = s.y - (o.y + t * d.y);
-    g2 = qx * qx + qz * qz - s.x * s.x;
-    const float y_scale = fabs(s.y) + fabs(o.y) + fabs(t * d.y) + 1e-30f;
-    const float r_scale = qx * qx + qz * qz + s.x * s.x + 1e-30f;
-    if (fabs(g1) > 1e-5f * y_scale || fabs(g2) > 1e-5f * r_scale) {
-        return false;
+    const float t = rev_t_at(r, s);
+    if (rev_newton(p, n, r, u0, u1, t, u, t_max, t_out, u_out, work)) {
+        return true;
     }
-    if (u < u0 || u > u1 || !(t > 0.0f && t < t_max)) {
-        return false;
+    /* Newton cannot improve on the bracketed root where the Jacobian is singular (the
+     * profile's speed vanishes where it meets the axis): keep it if it solves the system. */
+    if (rev_residuals_ok(r, s, t) && t > 0.0f && t < t_max) {
+        *t_out = t;
+        *u_out = u;
+        return true;
     }
-    *t_out = t;
-    *u_out = u;
-    return true;
+    return false;
 }
 
-/* For rays that change height: f(u) = r^2 of the ray at the height y(u), minus x(u)^2. */
-inline float rev_height_residual(__global const float2* p, uint n, float3 o, float3 d, float u,
-                                 float* t) {
-    float2 s, ds;
-    bezier_eval(p, n, u, &s, &ds);
-    *t = (s.y - o.y) / d.y;
-    const float3 q = o + *t * d;
-    return q.x * q.x + q.z * q.z - s.x * s.x;
-}
-
-/* Where Newton cannot converge (the profile's speed vanishes: repeated control points where
- * it meets the axis, flat parts), a sign change of f over the leaf still brackets a root:
- * bisection finds it whatever the parameterisation. */
-inline bool rev_bisect(__global const float2* p, uint n, float3 o, float3 d, float u0, float u1,
-                       float t_max, float* t_out, float* u_out) {
-    float ta, tb;
-    float fa = rev_height_residual(p, n, o, d, u0, &ta);
-    const float fb = rev_height_residual(p, n, o, d, u1, &tb);
-    if (!(fa * fb <= 0.0f)) {
-        return false;
+/* A sub-segment at REV_MAX_DEPTH: its chord from b[0] to b[n], the line
+ * dy x - dx y = dy x0 - dx y0, revolved is a cone (or a cylinder or a disc) on which
+ * dy^2 r^2 = (dy x0 - dx y0 + dx y)^2, a quadratic in t along the ray. Its roots seed Newton
+ * on (t, u), and stand for the hit where Newton cannot improve on them. */
+inline bool rev_solve_chord(__global const float2* p, uint n, const RevRay* r, const float2* b,
+                            float u0, float u1, float t_max, float* t_out, float* u_out,
+                            uint* work) {
+    const float3 o = r->o, d = r->d;
+    const float dx = b[n].x - b[0].x, dy = b[n].y - b[0].y;
+    /* In tau = t - t_c: the ray's r^2 is a tau^2 + rho2, its height o.y + t_c d.y + tau d.y. */
+    const float k = dy * b[0].x - dx * (b[0].y - (o.y + r->t_c * d.y));
+    const float qa = dy * dy * r->a - dx * dx * r->dy2;
+    const float qb = -2.0f * dx * d.y * k;
+    const float qc = dy * dy * r->rho2 - k * k;
+    float roots[2];
+    int count = 0;
+    if (qa != 0.0f) {
+        const float disc = qb * qb - 4.0f * qa * qc;
+        /* A touching ray gives a double root that rounding may push below zero. */
+        const float sq = sqrt(fmax(disc, 0.0f));
+        const float q = -0.5f * (qb + copysign(sq, qb));
+        roots[count++] = r->t_c + q / qa;
+        if (q != 0.0f) {
+            roots[count++] = r->t_c + qc / q;
+        }
+    } else if (qb != 0.0f) {
+        roots[count++] = r->t_c - qc / qb;
     }
-    float lo = u0, hi = u1, t = ta;
-    for (int i = 0; i < 32; ++i) {
-        const float mid = 0.5f * (lo + hi);
-        const float fm = rev_height_residual(p, n, o, d, mid, &t);
-        if ((fm <= 0.0f) == (fa <= 0.0f)) {
-            lo = mid;
-            fa = fm;
+    bool found = false;
+    float t_best = t_max;
+    for (int i = 0; i < count; ++i) {
+        /* The expanded quadratic cancels (c is |o_xz|^2, large for distant origins): two
+         * Newton steps on the cone's equation with the ray point's radius taken directly. */
+        float t = roots[i];
+        for (int j = 0; j < 2; ++j) {
+            const float qx = o.x + t * d.x, qz = o.z + t * d.z;
+            const float lin = k + dx * d.y * (t - r->t_c);
+            const float h = dy * dy * (qx * qx + qz * qz) - lin * lin;
+            const float dh = 2.0f * (dy * dy * (qx * d.x + qz * d.z) - lin * dx * d.y);
+            const float step = h / dh;
+            /* A correction of the rounding, not a jump away from a double root. */
+            if (isfinite(step) && fabs(step) <= 1e-3f * (fabs(t) + 1.0f)) {
+                t -= step;
+            }
+        }
+        if (!(t > 0.0f && t < t_best)) {
+            continue;
+        }
+        /* Where on the chord: by height, or by radius where the chord is flatter. */
+        const float3 q = o + t * d;
+        const float rho = sqrt(q.x * q.x + q.z * q.z);
+        float v;
+        if (fabs(dy) >= fabs(dx)) {
+            v = (q.y - b[0].y) / dy;
         } else {
-            hi = mid;
+            const float side = (b[0].x + b[n].x) < 0.0f ? -1.0f : 1.0f;
+            v = (side * rho - b[0].x) / dx;
+        }
+        /* v is the chord's parameter, not the curve's: a root at the sub-segment's end may
+         * come out a little beyond it on both sides. Such roots are taken by both, which is
+         * harmless, and not by neither. */
+        if (!(v >= -0.25f && v <= 1.25f)) {
+            continue;
+        }
+        const float w0 = fmax(0.0f, u0 - 0.25f * (u1 - u0));
+        const float w1 = fmin(1.0f, u1 + 0.25f * (u1 - u0));
+        const float u = clamp(u0 + v * (u1 - u0), w0, w1);
+        float th, uh;
+        /* Newton polishes the root, but where the ray nearly touches the cone the Jacobian
+         * is nearly singular and it may jump to the other root: it must stay nearer this
+         * one. */
+        const float reach = count == 2 ? 0.25f * fabs(roots[1] - roots[0]) : INFINITY;
+        if (rev_newton(p, n, r, w0, w1, t, u, t_best, &th, &uh, work) && fabs(th - t) < reach) {
+            t_best = th;
+            *u_out = uh;
+            found = true;
+        } else {
+            float2 s, ds;
+            bezier_eval(p, n, u, &s, &ds);
+            if (rev_residuals_ok(r, s, t)) {
+                t_best = t;
+                *u_out = u;
+                found = true;
+            }
         }
     }
-    const float u = 0.5f * (lo + hi);
-    rev_height_residual(p, n, o, d, u, &t);
-    if (!(t > 0.0f && t < t_max)) {
-        return false;
+    *t_out = t_best;
+    return found;
+}
+
+/* The first t in (t_lo, t_hi) at which the ray is inside the solid of revolution of the box
+ * (x_lo, x_hi, y_lo, y_hi) grown by pad, or t_hi if none: the height slab, then radius
+ * between the box's least and greatest |x| (a ring, or a disc where the box spans the axis). */
+inline float annulus_entry(const RevRay* r, float4 box, float pad, float t_lo, float t_hi) {
+    float t0 = t_lo, t1 = t_hi;
+    if (!height_slab(box, pad, r->o, r->d, &t0, &t1)) {
+        return t_hi;
     }
-    *t_out = t;
-    *u_out = u;
-    return true;
+    box.xy += (float2)(-pad, pad);
+    const float r_hi = fmax(fabs(box.x), fabs(box.y));
+    const float r_lo = (box.x > 0.0f || box.y < 0.0f) ? fmin(fabs(box.x), fabs(box.y)) : 0.0f;
+    /* The ray's distance from the axis is least at t_c (RevRay) and reaches R at
+     * t_c -+ sqrt((R^2 - rho2) / a). */
+    if (r->a == 0.0f) {
+        return (r->rho2 <= r_hi * r_hi && r->rho2 >= r_lo * r_lo) ? t0 : t_hi;
+    }
+    if (r->rho2 > r_hi * r_hi) {
+        return t_hi;
+    }
+    const float w_hi = sqrt((r_hi * r_hi - r->rho2) / r->a);
+    t0 = fmax(t0, r->t_c - w_hi);
+    t1 = fmin(t1, r->t_c + w_hi);
+    if (!(t0 <= t1)) {
+        return t_hi;
+    }
+    if (r->rho2 < r_lo * r_lo) {
+        /* In the hole at t0: the ring again from where the ray leaves the hole. */
+        const float w_lo = sqrt((r_lo * r_lo - r->rho2) / r->a);
+        if (t0 > r->t_c - w_lo && t0 < r->t_c + w_lo) {
+            t0 = r->t_c + w_lo;
+        }
+    }
+    return t0 <= t1 ? t0 : t_hi;
 }
 
 /* The nearest hit in (0, t_max) of o + t d (d unit) with the surface: t, or t_max if none;
- * *seg and *u_hit say where on the profile. */
+ * *seg and *u_hit say where on the profile, *work counts the solvers' iterations. */
 inline float revsurface_intersect(__global const RevSurface* rs, __global const float2* points,
-                                  float3 o, float3 d, float t_max, uint* seg, float* u_hit) {
+                                  float3 o, float3 d, float t_max, uint* seg, float* u_hit,
+                                  uint* work) {
     const uint n = rs->degree;
+    RevRay ray = rev_ray(o, d);
     float t_best = t_max;
     for (uint k = 0u; k < rs->num_segments; ++k) {
         __global const float2* p = points + rs->first_point + k * (n + 1u);
+        rev_ray_segment(&ray, p, n);
         float2 stack[REV_STACK]; /* (u0, u1) */
         uchar depth[REV_STACK];
-        int top = 0;
         stack[0] = (float2)(0.0f, 1.0f);
         depth[0] = 0;
-        top = 1;
+        int top = 1;
         while (top > 0) {
             --top;
             const float2 iv = stack[top];
             const uchar dep = depth[top];
-            const float4 box = bezier_hull(p, n, iv.x, iv.y);
+            float2 b[REV_MAX_DEGREE + 1];
+            bezier_sub(p, n, iv.x, iv.y, b);
+            float4 box = (float4)(b[0].x, b[0].x, b[0].y, b[0].y);
+            for (uint i = 1u; i <= n; ++i) {
+                box = (float4)(fmin(box.x, b[i].x), fmax(box.y, b[i].x), fmin(box.z, b[i].y),
+                               fmax(box.w, b[i].y));
+            }
             if (!annulus_reachable(box, o, d, 0.0f, t_best)) {
                 continue;
             }
-            const float t_before = t_best;
-            if (dep >= REV_LEAF_DEPTH || top + 2 > REV_STACK) {
-                /* Starting points: where the ray is at the sub-segment's middle height, and
-                 * where it enters and leaves the cylinder of the middle's radius (the only
-                 * good guesses for rays that keep their height). The nearest root wins. */
-                float2 mid, dmid;
-                bezier_eval(p, n, 0.5f * (iv.x + iv.y), &mid, &dmid);
-                const float a = d.x * d.x + d.z * d.z;
-                const float b = 2.0f * (o.x * d.x + o.z * d.z);
-                const float c = o.x * o.x + o.z * o.z - mid.x * mid.x;
-                const float disc = b * b - 4.0f * a * c;
-                float guesses[3];
-                int count = 0;
-                if (d.y != 0.0f) {
-                    guesses[count++] = (mid.y - o.y) / d.y;
+            float f0;
+            const int roots = rev_classify(&ray, b, n, &f0);
+            if (roots == REV_NONE) {
+                continue;
+            }
+            float th, uh;
+            if (roots == REV_ONE) {
+                if (rev_solve_one(p, n, &ray, iv.x, iv.y, f0, t_best, &th, &uh, work)) {
+                    t_best = th;
+                    *seg = k;
+                    *u_hit = uh;
                 }
-                if (a > 0.0f && disc >= 0.0f) {
-                    const float q = -0.5f * (b + copysign(sqrt(disc), b));
-                    guesses[count++] = q / a;
-                    if (q != 0.0f) {
-                        guesses[count++] = c / q;
-                    }
-                }
-                bool found = false;
-                for (int g = 0; g < count; ++g) {
-                    float th, uh;
-                    if (rev_newton(p, n, o, d, iv.x, iv.y, guesses[g], t_best, &th, &uh)) {
-                        t_best = th;
+                continue;
+            }
+            const bool tiny = fmax(box.y - box.x, box.w - box.z) <= ray.leaf_size;
+            if (dep >= REV_MAX_DEPTH || tiny) {
+                if (rev_solve_chord(p, n, &ray, b, iv.x, iv.y, t_best, &th, &uh, work)) {
+                    t_best = th;
+                    *seg = k;
+                    *u_hit = uh;
+                } else if (tiny) {
+                    /* A sub-curve within rounding of a point (where the profile's speed
+                     * vanishes, a chord is no model of it) that F cannot tell from the ray:
+                     * where the ray enters its box's ring, grown by the box's rounding, it is
+                     * within a few roundings of the surface. */
+                    const float t = annulus_entry(&ray, box, ray.leaf_size, 0.0f, t_best);
+                    if (t < t_best) {
+                        t_best = t;
                         *seg = k;
-                        *u_hit = uh;
-                        found = true;
+                        *u_hit = 0.5f * (iv.x + iv.y);
                     }
                 }
-                float th, uh;
-                if (fabs(d.y) > 1e-3f) {
-                    if (!found) {
-                        if (rev_bisect(p, n, o, d, iv.x, iv.y, t_best, &th, &uh)) {
-                            t_best = th;
-                            *seg = k;
-                            *u_hit = uh;
-                        }
-                    } else if (*seg == k) {
-                        /* Two roots in one leaf (a ray clipping a bulge): Newton found one;
-                         * a sign change on either side of it brackets the other, which
-                         * wins if it is nearer. */
-                        const float ur = *u_hit;
-                        const float gap = 1e-4f * (iv.y - iv.x);
-                        if (ur - gap > iv.x &&
-                            rev_bisect(p, n, o, d, iv.x, ur - gap, t_best, &th, &uh)) {
-                            t_best = th;
-                            *u_hit = uh;
-                        } else if (ur + gap < iv.y &&
-                                   rev_bisect(p, n, o, d, ur + gap, iv.y, t_best, &th, &uh)) {
-                            t_best = th;
-                            *u_hit = uh;
-                        }
-                    }
-                }
-                /* Nothing here although the hull admits the ray: two roots too close for
-                 * Newton and bisection (a ray clipping a bulge), or a ray just missing. Look
-                 * closer, down to REV_MAX_DEPTH. */
-                const bool nothing = t_best == t_before;
-                if (!(nothing && dep < REV_MAX_DEPTH && top + 2 <= REV_STACK)) {
-                    continue;
-                }
+                continue;
             }
             const float um = 0.5f * (iv.x + iv.y);
             stack[top] = (float2)(um, iv.y);

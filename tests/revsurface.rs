@@ -2,9 +2,9 @@
 //! `clpt::scene::curve::intersect_reference`: for each profile (the original's goblet and vase,
 //! and a profile with a cusp on the axis), 1e6 rays each of every kind (random, along and near
 //! the axis, nearly horizontal, at the rim and the foot's edge): no false hit (a device hit more
-//! than 1e-4 of the scene's size from the surface), and no missed hit where the ray does not
-//! graze (|n.d| > 0.01) beyond the interim budget below (the curves issue's goal is zero); rays
-//! spawned from every hit must not find the surface they leave.
+//! than 1e-4 of the scene's size from the surface), no missed hit (a root more than that before
+//! the device's hit, or a root where the device found none) where the ray does not graze
+//! (|n.d| > 0.01), and no ray spawned from a hit that finds the surface it leaves.
 
 mod common;
 
@@ -204,27 +204,7 @@ fn device_hits_match_the_f64_reference() {
     }
     for (name, missed, false_hits, self_hits) in results {
         assert_eq!(false_hits, 0, "{name}: false hits");
-        // INTERIM as the misses below: one spawned ray in 685,000 on the cusp profile (PoCL)
-        // re-found its surface at t = 5e-5; none on the goblet and the vase.
-        let self_hit_budget = if name == "cusp" { 1 } else { 0 };
-        assert!(
-            self_hits <= self_hit_budget,
-            "{name}: {self_hits} spawned rays hit the surface they leave"
-        );
-        // INTERIM (the curves issue is open; its goal is zero): misses per 1e6 rays measured
-        // when this test was written, the larger of PoCL 3.1 and an H200's NVIDIA OpenCL
-        // (goblet 4 and 4, vase 18 and 24, cusp 745 and 753), bounded so that nothing gets
-        // worse meanwhile. They are pairs of roots closer
-        // than a leaf separates (rays clipping a bulge or the rim) and, on the cusp profile,
-        // rays through its tips on the axis.
-        let interim_budget = match name {
-            "goblet" => 4,
-            "vase" => 24,
-            _ => 753,
-        };
-        assert!(
-            missed <= interim_budget,
-            "{name}: {missed} missed, interim budget {interim_budget}"
-        );
+        assert_eq!(missed, 0, "{name}: missed hits");
+        assert_eq!(self_hits, 0, "{name}: spawned rays hit the surface they leave");
     }
 }
