@@ -159,7 +159,8 @@ inline void rev_object_intersect(const Scene* sc, uint index, float3 o, float3 d
     float scale;
     to_object_space(sc, r->transform, &o, &d, &scale);
     const float t_max = hit->t * scale;
-    uint seg = 0u, work = 0u;
+    uint seg = 0u;
+    RevWork work = {0u, 0u};
     float u = 0.0f;
     const float t = revsurface_intersect(r, sc->rev_points, o, d, t_max, &seg, &u, &work);
     if (t < t_max) {
@@ -176,13 +177,14 @@ inline void rev_object_intersect(const Scene* sc, uint index, float3 o, float3 d
  * bound covering the Newton iteration's acceptance band. */
 inline void rev_surface(const Scene* sc, __global const RevSurface* r, Hit hit, float3 p_ray,
                         float3* p, float3* p_error, float3* n) {
-    __global const float2* pts = sc->rev_points + r->first_point + hit.prim * (r->degree + 1u);
+    const uint degree = REV_DEGREE(r);
+    __global const float2* pts = sc->rev_points + r->first_point + hit.prim * (degree + 1u);
     float size = 0.0f;
-    for (uint i = 0u; i <= r->degree; ++i) {
+    for (uint i = 0u; i <= degree; ++i) {
         size = fmax(size, fabs(pts[i].x) + fabs(pts[i].y));
     }
     float2 s, ds;
-    bezier_eval(pts, r->degree, hit.b1, &s, &ds);
+    bezier_eval(pts, degree, hit.b1, &s, &ds);
     const float rho = sqrt(p_ray.x * p_ray.x + p_ray.z * p_ray.z);
     const float3 radial = rho > 0.0f ? (float3)(p_ray.x / rho, 0.0f, p_ray.z / rho)
                                      : (float3)(1.0f, 0.0f, 0.0f);
@@ -196,7 +198,7 @@ inline void rev_surface(const Scene* sc, __global const RevSurface* r, Hit hit, 
         const float dir = hit.b1 < 0.5f ? 1.0f : -1.0f;
         for (float du = 1.0f / 64.0f; du <= 0.5f; du *= 2.0f) {
             float2 s2, ds2;
-            bezier_eval(pts, r->degree, hit.b1 + dir * du, &s2, &ds2);
+            bezier_eval(pts, degree, hit.b1 + dir * du, &s2, &ds2);
             tangent = dir * (s2 - s);
             if (length(s2 - s) >= 1e-4f * size) {
                 break;

@@ -125,3 +125,20 @@ __kernel void probe_bump(__global const float* frames, __global const float2* g,
                                  vload3(3 * i + 2, frames), g[i]);
     vstore3(n, i, out);
 }
+
+/* Surfaces of revolution alone, for benchmarks: rays (o, d; 6 floats) in the object space of
+ * revolved surface 0; output t (t_max = INFINITY when none), solver iterations and
+ * sub-segments visited. */
+__kernel void probe_rev_work(__global const RevSurface* revsurfaces,
+                             __global const float2* rev_points, __global const float* rays,
+                             __global float* out) {
+    const uint i = get_global_id(0);
+    const float3 o = vload3(2 * i, rays);
+    const float3 d = vload3(2 * i + 1, rays);
+    uint seg = 0u;
+    float u = 0.0f;
+    RevWork work = {0u, 0u};
+    const float t = revsurface_intersect(&revsurfaces[0], rev_points, o, d, INFINITY, &seg, &u,
+                                         &work);
+    vstore3((float3)(t, (float)work.iterations, (float)work.nodes), i, out);
+}

@@ -35,6 +35,14 @@
 #define CLPT_REVSURFACE_H
 
 #define REV_MAX_DEGREE 7
+/* CLPT_REV_DEGREE > 0 says that every revolved surface of the scene has that degree: loops
+ * over control points then have constant bounds, are unrolled and keep their arrays in
+ * registers (the host sets it, render/mod.rs). 0 reads the degree from each surface. */
+#if defined(CLPT_REV_DEGREE) && CLPT_REV_DEGREE > 0
+#define REV_DEGREE(rs) ((uint)CLPT_REV_DEGREE)
+#else
+#define REV_DEGREE(rs) ((rs)->degree)
+#endif
 #define REV_MAX_DEPTH 10
 #define REV_STACK (REV_MAX_DEPTH + 2)
 #define REV_SOLVE_STEPS 40
@@ -75,6 +83,14 @@ inline void bezier_sub(__global const float2* p, uint n, float u0, float u1, flo
         }
     }
 }
+
+/* What one intersection cost: solver iterations (Newton steps on F or on (t, u)) and
+ * sub-segments visited. Benchmarks read it (probe_rev_work); renders let the compiler drop
+ * it. */
+typedef struct RevWork {
+    uint iterations;
+    uint nodes;
+} RevWork;
 
 /* The ray in the terms F needs, and the rounding bounds of those terms. */
 typedef struct RevRay {
@@ -144,7 +160,7 @@ inline float rev_f(const RevRay* r, float2 s, float2 ds, float* df) {
 #define REV_ONE 1    /* certainly exactly one root, a simple one */
 #define REV_SPLIT 2  /* undecided */
 
-inline int rev_classify(const RevRay* r, const float2* b, uint n, float* f0) {
+inline int rev_classify(const RevRay* r, const float2* b, uint n, float* f0, float* f1) {
     /* Unnormalised coefficients: the k-th is C(2n, k) times the Bernstein coefficient, the
      * sum over i + j = k of C(n, i) C(n, j) g_ij with g_ij = q_i.q_j - d.y^2 x_i x_j; the
      * positive factor changes no sign. */
@@ -178,6 +194,7 @@ inline int rev_classify(const RevRay* r, const float2* b, uint n, float* f0) {
         }
     }
     *f0 = c[0];
+    *f1 = c[2u * n];
     /* Signs of the certain coefficients; an uncertain run between two equal signs could hide
      * two sign changes, and uncertain ends leave the count open. */
     int prev = 0, variations = 0;
@@ -278,11 +295,11 @@ inline bool rev_residuals_ok(const RevRay* r, float2 s, float t) {
 /* Newton on (t, u) for g1 = y(u) - (o.y + t d.y) = 0, g2 = |o_xz + t d_xz|^2 - x(u)^2 = 0 from
  * (t, u); true with the root when it converges with u in [u0, u1] and t in (0, t_max). */
 inline bool rev_newton(__global const float2* p, uint n, const RevRay* r, float u0, float u1,
-                       float t, float u, float t_max, float* t_out, float* u_out, uint* work) {
+                       float t, float u, float t_max, float* t_out, float* u_out, RevWork* work) {
     const float3 o = r->o, d = r->d;
     float2 s, ds;
     for (int i = 0; i < REV_NEWTON_STEPS; ++i) {
-        ++*work;
+        ++work->iterations;
         bezier_eval(p, n, u, &s, &ds);
         /* r^2 of the ray point evaluated directly, not as a t^2 + b t + c, which cancels
          * near the axis. */
@@ -344,15 +361,18 @@ inline float rev_t_at(const RevRay* r, float2 s) {
     return best;
 }
 
-/* The one root of F on [u0, u1] (F(u0) has the sign of f0): Newton on F kept inside a
- * shrinking bracket, then Newton on (t, u) from there. */
+/* The one root of F on [u0, u1], where F is f0 and f1 at the ends (of opposite signs): Newton
+ * on F from the secant's root, kept inside a shrinking bracket, then Newton on (t, u) from
+ * there where the pair does not yet solve both equations. */
 inline bool rev_solve_one(__global const float2* p, uint n, const RevRay* r, float u0, float u1,
-                          float f0, float t_max, float* t_out, float* u_out, uint* work) {
-    float lo = u0, hi = u1, u = 0.5f * (u0 + u1);
+                          float f0, float f1, float t_max, float* t_out, float* u_out,
+                          RevWork* work) {
+    float lo = u0, hi = u1;
+    float u = u0 + clamp(f0 / (f0 - f1), 0.0f, 1.0f) * (u1 - u0);
     const bool lo_positive = f0 > 0.0f;
     float2 s, ds;
     for (int i = 0; i < REV_SOLVE_STEPS; ++i) {
-        ++*work;
+        ++work->iterations;
         bezier_eval(p, n, u, &s, &ds);
         float df;
         const float f = rev_f(r, s, ds, &df);
@@ -373,17 +393,13 @@ inline bool rev_solve_one(__global const float2* p, uint n, const RevRay* r, flo
     }
     bezier_eval(p, n, u, &s, &ds);
     const float t = rev_t_at(r, s);
-    if (rev_newton(p, n, r, u0, u1, t, u, t_max, t_out, u_out, work)) {
-        return true;
-    }
-    /* Newton cannot improve on the bracketed root where the Jacobian is singular (the
-     * profile's speed vanishes where it meets the axis): keep it if it solves the system. */
+    /* Usually (t, u) already solves both equations to rounding; else Newton polishes it. */
     if (rev_residuals_ok(r, s, t) && t > 0.0f && t < t_max) {
         *t_out = t;
         *u_out = u;
         return true;
     }
-    return false;
+    return rev_newton(p, n, r, u0, u1, t, u, t_max, t_out, u_out, work);
 }
 
 /* A sub-segment at REV_MAX_DEPTH: its chord from b[0] to b[n], the line
@@ -392,7 +408,7 @@ inline bool rev_solve_one(__global const float2* p, uint n, const RevRay* r, flo
  * on (t, u), and stand for the hit where Newton cannot improve on them. */
 inline bool rev_solve_chord(__global const float2* p, uint n, const RevRay* r, const float2* b,
                             float u0, float u1, float t_max, float* t_out, float* u_out,
-                            uint* work) {
+                            RevWork* work) {
     const float3 o = r->o, d = r->d;
     const float dx = b[n].x - b[0].x, dy = b[n].y - b[0].y;
     /* In tau = t - t_c: the ray's r^2 is a tau^2 + rho2, its height o.y + t_c d.y + tau d.y. */
@@ -512,11 +528,11 @@ inline float annulus_entry(const RevRay* r, float4 box, float pad, float t_lo, f
 }
 
 /* The nearest hit in (0, t_max) of o + t d (d unit) with the surface: t, or t_max if none;
- * *seg and *u_hit say where on the profile, *work counts the solvers' iterations. */
+ * *seg and *u_hit say where on the profile, *work counts what it took. */
 inline float revsurface_intersect(__global const RevSurface* rs, __global const float2* points,
                                   float3 o, float3 d, float t_max, uint* seg, float* u_hit,
-                                  uint* work) {
-    const uint n = rs->degree;
+                                  RevWork* work) {
+    const uint n = REV_DEGREE(rs);
     RevRay ray = rev_ray(o, d);
     float t_best = t_max;
     for (uint k = 0u; k < rs->num_segments; ++k) {
@@ -531,6 +547,7 @@ inline float revsurface_intersect(__global const RevSurface* rs, __global const 
             --top;
             const float2 iv = stack[top];
             const uchar dep = depth[top];
+            ++work->nodes;
             float2 b[REV_MAX_DEGREE + 1];
             bezier_sub(p, n, iv.x, iv.y, b);
             float4 box = (float4)(b[0].x, b[0].x, b[0].y, b[0].y);
@@ -541,14 +558,14 @@ inline float revsurface_intersect(__global const RevSurface* rs, __global const 
             if (!annulus_reachable(box, o, d, 0.0f, t_best)) {
                 continue;
             }
-            float f0;
-            const int roots = rev_classify(&ray, b, n, &f0);
+            float f0, f1;
+            const int roots = rev_classify(&ray, b, n, &f0, &f1);
             if (roots == REV_NONE) {
                 continue;
             }
             float th, uh;
             if (roots == REV_ONE) {
-                if (rev_solve_one(p, n, &ray, iv.x, iv.y, f0, t_best, &th, &uh, work)) {
+                if (rev_solve_one(p, n, &ray, iv.x, iv.y, f0, f1, t_best, &th, &uh, work)) {
                     t_best = th;
                     *seg = k;
                     *u_hit = uh;

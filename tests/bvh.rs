@@ -4,6 +4,8 @@
 //! containing what lies below them, every node referenced once, depth within `MAX_DEPTH`);
 //! Morton codes of normalised centres resolve a scene spanning ±1e5 where raw ones saturate.
 
+mod common;
+
 use clpt::accel::aabb::Aabb;
 use clpt::accel::bvh::{self, Bvh, MAX_DEPTH, morton_code};
 use clpt::device::layout::{BVH_EMPTY, BVH_LEAF};
@@ -39,20 +41,6 @@ impl Ball {
         }
         let s = disc.sqrt();
         [-b - s, -b + s].into_iter().find(|&t| t > 0.0 && t < t_max)
-    }
-}
-
-fn random_unit(rng: &mut SmallRng) -> DVec3 {
-    loop {
-        let v = DVec3::new(
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-        );
-        let l = v.length_squared();
-        if l > 1e-6 && l <= 1.0 {
-            return v / l.sqrt();
-        }
     }
 }
 
@@ -199,14 +187,14 @@ fn check_rays(balls: &[Ball], bvh: &Bvh, origins: &Aabb, seed: u64) -> RayCounts
     for ray in 0..RAYS {
         let o = random_in(&mut rng, origins);
         let d = if ray % 2 == 0 {
-            random_unit(&mut rng)
+            common::random_unit(&mut rng)
         } else {
             let target = balls[rng.random_range(0..balls.len())];
             let aim = random_in(&mut rng, &target.aabb()) - o;
             if aim.length_squared() > 0.0 {
                 aim.normalize()
             } else {
-                random_unit(&mut rng)
+                common::random_unit(&mut rng)
             }
         };
         let t_max = if ray % 7 == 0 {
@@ -333,7 +321,7 @@ fn clustered_scenes_match_brute_force() {
     let center = DVec3::new(0.3, -0.2, 0.1);
     for _ in 0..300 {
         balls.push(Ball {
-            center: center + random_unit(&mut rng) * 1e-7,
+            center: center + common::random_unit(&mut rng) * 1e-7,
             radius: rng.random_range(0.01..0.05),
         });
     }

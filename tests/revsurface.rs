@@ -4,11 +4,14 @@
 //! the axis, nearly horizontal, at the rim and the foot's edge): no false hit (a device hit more
 //! than 1e-4 of the scene's size from the surface), no missed hit (a root more than that before
 //! the device's hit, or a root where the device found none) where the ray does not graze
-//! (|n.d| > 0.01), and no ray spawned from a hit that finds the surface it leaves.
+//! (|n.d| > 0.01), and no ray spawned from a hit that finds the surface it leaves. Renders of
+//! the goblet are deterministic: the same seed gives the same bits however the work is split.
 
 mod common;
 
+use clpt::device::program::KernelSources;
 use clpt::device::upload::PackedScene;
+use clpt::render::{RenderOptions, Renderer};
 use clpt::scene::curve::{self, Curve, CurveKind};
 use clpt::scene::parse::parse_scene;
 use glam::{DVec2, DVec3};
@@ -205,6 +208,50 @@ fn device_hits_match_the_f64_reference() {
     for (name, missed, false_hits, self_hits) in results {
         assert_eq!(false_hits, 0, "{name}: false hits");
         assert_eq!(missed, 0, "{name}: missed hits");
-        assert_eq!(self_hits, 0, "{name}: spawned rays hit the surface they leave");
+        assert_eq!(
+            self_hits, 0,
+            "{name}: spawned rays hit the surface they leave"
+        );
     }
+}
+
+#[test]
+fn goblet_renders_are_deterministic() {
+    let device = common::device();
+    let controls: String = common::GOBLET
+        .iter()
+        .map(|[x, y]| format!("[ {x} {y} 0 ] "))
+        .collect();
+    let text = format!(
+        "PerspectiveCamera {{ center 0 0 12 direction 0 0 -1 angle 30 width 64 height 36 }}\n\
+         Materials {{ numMaterials 3 Material {{ emission 4 4 4 }} \
+         Material {{ color 0.94 0.75 0.34 type spec }} Material {{ color 0.75 0.75 0.75 }} }}\n\
+         Group {{ numObjects 3 MaterialIndex 0 Sphere {{ center 0 8 4 radius 2 }} \
+         MaterialIndex 1 RevSurface {{ profile BsplineCurve {{ controls {controls} }} }} \
+         MaterialIndex 2 Plane {{ normal 0 1 0 offset -2.4588 range 100 }} }}\n"
+    );
+    let scene = parse_scene(&text, "goblet").unwrap_or_else(|e| panic!("{e}"));
+    let render = |seed: u64, launch_target: std::time::Duration| {
+        let options = RenderOptions {
+            spp: Some(4),
+            seed,
+            launch_target,
+            ..RenderOptions::default()
+        };
+        let mut renderer = Renderer::new(&device, &scene, &KernelSources::Embedded, options)
+            .unwrap_or_else(|e| panic!("{e}"));
+        renderer
+            .render(&mut |_| {})
+            .unwrap_or_else(|e| panic!("{e}"))
+            .0
+    };
+    let a = render(3, RenderOptions::default().launch_target);
+    let b = render(3, std::time::Duration::from_nanos(1));
+    let c = render(4, RenderOptions::default().launch_target);
+    assert!(a.sum.iter().any(|p| p[..3] != [0.0; 3]), "a black image");
+    assert_eq!(
+        a.sum, b.sum,
+        "same seed, other launch split: different sums"
+    );
+    assert_ne!(a.sum, c.sum, "another seed gave the same image");
 }

@@ -17,6 +17,12 @@ seed=seed/testcases
 } > $OUT/info.txt 2>&1; cat $OUT/info.txt
 export CLPT_DEVICE=NVIDIA
 {
+  echo "## cargo bench --bench revsurface (goblet alone), degree 3 compiled in"
+  ./bench_revsurface
+  echo "## the same, degree read at run time"
+  CLPT_BENCH_OPTIONS=" " ./bench_revsurface
+} > $OUT/bench_revsurface.txt 2>&1; cat $OUT/bench_revsurface.txt
+{
   echo "## H200, cold build (CUDA_CACHE_DISABLE=1), 256 spp"
   CUDA_CACHE_DISABLE=1 ./clpt bench scenes/smallpt.txt $seed/case2_softshadows_colorbleeding.txt $seed/case0_texture.txt scenes/textures.txt scenes/meshes.txt $seed/case1_dof_mesh.txt $seed/case3_wineglass.txt scenes/goblet.txt tools/dragon_rays.txt --spp 256
 } 2>&1 | grep -v warning > $OUT/bench.txt; cat $OUT/bench.txt

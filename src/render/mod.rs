@@ -169,6 +169,11 @@ impl<'d> Renderer<'d> {
             ObjectBvh::On => true,
             ObjectBvh::Off => false,
         };
+        // One degree for all revolved surfaces lets the kernels unroll their loops.
+        let rev_degree = match packed.revsurfaces.split_first() {
+            Some((first, rest)) if rest.iter().all(|r| r.degree == first.degree) => first.degree,
+            _ => 0,
+        };
         let defines = [
             (
                 "CLPT_MESHES",
@@ -179,6 +184,7 @@ impl<'d> Renderer<'d> {
                 "CLPT_REVSURFACES",
                 (!packed.revsurfaces.is_empty() as u32).to_string(),
             ),
+            ("CLPT_REV_DEGREE", rev_degree.to_string()),
         ];
         let program = program::build_entry(
             device,
