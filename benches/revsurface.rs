@@ -55,11 +55,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let packed = PackedScene::new(&scene, u64::MAX)?;
     let params = packed.params(0, 1, 1, 0);
     let buffers = SceneBuffers::new(&device, &packed, &params)?;
+    // As a render of this scene builds it: the goblet is a cubic B-spline, its degree compiled
+    // in (CLPT_BENCH_REV_DEGREE=0 reads it at run time instead).
+    let degree = std::env::var("CLPT_BENCH_REV_DEGREE").unwrap_or_else(|_| "3".into());
     let probes = program::build_entry(
         &device,
         &KernelSources::Embedded,
         "probes.cl",
-        String::new(),
+        &[("CLPT_REV_DEGREE", degree)],
+        None,
     )?;
 
     let (c, size) = (bounds.center(), bounds.extent().length());

@@ -21,6 +21,7 @@ inline float tent(float u) {
     return r < 1.0f ? sqrt(r) - 1.0f : 1.0f - sqrt(2.0f - r);
 }
 
+#if CLPT_THIN_LENS
 /* Shirley and Chiu's concentric map of the unit square onto the unit disk: area-preserving and
  * continuous, so stratified lens samples stay stratified. */
 inline float2 concentric_disk(float2 u) {
@@ -38,6 +39,7 @@ inline float2 concentric_disk(float2 u) {
     }
     return r * (float2)(cos(phi), sin(phi));
 }
+#endif
 
 /* The primary ray for pixel (px, py), sub-pixel `sub` (0..3), from four uniform numbers:
  * u.xy jitter the image point, u.zw pick the lens point. */
@@ -50,16 +52,19 @@ inline void camera_ray(__global const Camera* cam, uint px, uint py, uint sub, f
     const float3 forward = vload3(0, cam->forward);
     const float3 d = vload3(0, cam->cx) * fx + vload3(0, cam->cy) * fy + forward;
     const float3 o = vload3(0, cam->origin);
-    if (cam->focus_distance <= 0.0f) {
-        *origin = o;
-        *direction = normalize(d);
+#if CLPT_THIN_LENS
+    if (cam->focus_distance > 0.0f) {
+        const float3 focus = o + d * (cam->focus_distance / dot(d, forward));
+        const float2 lens = cam->lens_radius * concentric_disk(u.zw);
+        const float3 lens_point =
+            o + vload3(0, cam->lens_u) * lens.x + vload3(0, cam->lens_v) * lens.y;
+        *origin = lens_point;
+        *direction = normalize(focus - lens_point);
         return;
     }
-    const float3 focus = o + d * (cam->focus_distance / dot(d, forward));
-    const float2 lens = cam->lens_radius * concentric_disk(u.zw);
-    const float3 lens_point = o + vload3(0, cam->lens_u) * lens.x + vload3(0, cam->lens_v) * lens.y;
-    *origin = lens_point;
-    *direction = normalize(focus - lens_point);
+#endif
+    *origin = o;
+    *direction = normalize(d);
 }
 
 #endif

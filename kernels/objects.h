@@ -9,25 +9,23 @@
 #ifndef CLPT_OBJECTS_H
 #define CLPT_OBJECTS_H
 
+/* What is compiled follows the program switches of features.h. */
 #include "aabb.h"
+#if CLPT_TRANSFORMS
 #include "transform.h"
+#endif
+#if CLPT_SPHERES
 #include "sphere.h"
+#endif
+#if CLPT_PLANES
 #include "plane.h"
+#endif
+#if CLPT_MESHES
 #include "triangle.h"
 #include "kdtree.h"
+#endif
+#if CLPT_REVSURFACES
 #include "revsurface.h"
-
-/* Program switches (set by the host from the scene, src/device/program.rs): CLPT_MESHES 0
- * leaves out the mesh, kd-tree and triangle code; CLPT_BVH 0 tests objects in a loop instead
- * of traversing the BVH; CLPT_REVSURFACES 0 leaves out surfaces of revolution. */
-#ifndef CLPT_MESHES
-#define CLPT_MESHES 1
-#endif
-#ifndef CLPT_BVH
-#define CLPT_BVH 1
-#endif
-#ifndef CLPT_REVSURFACES
-#define CLPT_REVSURFACES 1
 #endif
 
 #define HIT_NONE 0u
@@ -100,11 +98,13 @@ typedef struct Surface {
 inline void mesh_object_intersect(const Scene* sc, uint index, float3 o, float3 d, Hit* hit) {
     __global const MeshInstance* inst = &sc->mesh_instances[index];
     float3 lo = o, ld = d;
+#if CLPT_TRANSFORMS
     if (inst->transform != TRANSFORM_NONE) {
         __global const float* inv = sc->transforms[inst->transform].inv;
         lo = xform_point(inv, o);
         ld = xform_vector(inv, d);
     }
+#endif
     if (kdtree_intersect(&sc->meshes[inst->mesh], sc->kd_nodes, sc->kd_indices, sc->triangles,
                          sc->vertices, lo, ld, &hit->t, &hit->prim, &hit->b1, &hit->b2)) {
         hit->kind = HIT_MESH;
@@ -118,6 +118,7 @@ inline void mesh_object_intersect(const Scene* sc, uint index, float3 o, float3 
 inline void to_object_space(const Scene* sc, uint transform, float3* o, float3* d,
                             float* scale) {
     *scale = 1.0f;
+#if CLPT_TRANSFORMS
     if (transform != TRANSFORM_NONE) {
         __global const float* inv = sc->transforms[transform].inv;
         *o = xform_point(inv, *o);
@@ -125,8 +126,10 @@ inline void to_object_space(const Scene* sc, uint transform, float3* o, float3* 
         *scale = length(*d);
         *d /= *scale;
     }
+#endif
 }
 
+#if CLPT_SPHERES
 inline void sphere_object_intersect(const Scene* sc, uint index, float3 o, float3 d, Hit* hit) {
     __global const Sphere* s = &sc->spheres[index];
     float scale;
@@ -140,6 +143,9 @@ inline void sphere_object_intersect(const Scene* sc, uint index, float3 o, float
     }
 }
 
+#endif
+
+#if CLPT_PLANES
 inline void plane_object_intersect(const Scene* sc, uint index, float3 o, float3 d, Hit* hit) {
     __global const Plane* p = &sc->planes[index];
     float scale;
@@ -152,6 +158,7 @@ inline void plane_object_intersect(const Scene* sc, uint index, float3 o, float3
         hit->index = index;
     }
 }
+#endif
 
 #if CLPT_REVSURFACES
 inline void rev_object_intersect(const Scene* sc, uint index, float3 o, float3 d, Hit* hit) {
@@ -230,14 +237,22 @@ inline void object_intersect(const Scene* sc, ObjectRef ref, float3 o, float3 d,
         return;
     }
 #endif
+#if CLPT_SPHERES
     if (ref.kind == OBJECT_SPHERE) {
         sphere_object_intersect(sc, ref.index, o, d, hit);
-    } else {
+        return;
+    }
+#endif
+#if CLPT_PLANES
+    if (ref.kind == OBJECT_PLANE) {
         plane_object_intersect(sc, ref.index, o, d, hit);
     }
+#endif
 }
 
+#if CLPT_BVH
 #include "bvh.h"
+#endif
 
 inline Hit scene_intersect(const Scene* sc, float3 o, float3 d) {
     Hit hit;
@@ -251,12 +266,16 @@ inline Hit scene_intersect(const Scene* sc, float3 o, float3 d) {
     bvh_intersect(sc, o, d, &hit);
 #else
     /* Kind by kind, so all work-items run the same code at the same time. */
+#if CLPT_SPHERES
     for (uint i = 0u; i < sc->params->num_spheres; ++i) {
         sphere_object_intersect(sc, i, o, d, &hit);
     }
+#endif
+#if CLPT_PLANES
     for (uint i = 0u; i < sc->params->num_planes; ++i) {
         plane_object_intersect(sc, i, o, d, &hit);
     }
+#endif
 #if CLPT_MESHES
     for (uint i = 0u; i < sc->params->num_mesh_instances; ++i) {
         mesh_object_intersect(sc, i, o, d, &hit);
@@ -309,30 +328,50 @@ inline Surface scene_surface(const Scene* sc, Hit hit, float3 o, float3 d) {
     } else
 #endif
     {
-        transform = hit.kind == HIT_SPHERE  ? sc->spheres[hit.index].transform
-                    : hit.kind == HIT_PLANE ? sc->planes[hit.index].transform
-                                            : sc->revsurfaces[hit.index].transform;
+        transform = TRANSFORM_NONE;
+#if CLPT_SPHERES
+        if (hit.kind == HIT_SPHERE) {
+            transform = sc->spheres[hit.index].transform;
+            s.material = sc->spheres[hit.index].material;
+        }
+#endif
+#if CLPT_PLANES
+        if (hit.kind == HIT_PLANE) {
+            transform = sc->planes[hit.index].transform;
+            s.material = sc->planes[hit.index].material;
+        }
+#endif
+#if CLPT_REVSURFACES
+        if (hit.kind == HIT_REVSURFACE) {
+            transform = sc->revsurfaces[hit.index].transform;
+            s.material = sc->revsurfaces[hit.index].material;
+        }
+#endif
         float scale;
         to_object_space(sc, transform, &lo, &ld, &scale);
         t *= scale;
-        if (hit.kind == HIT_REVSURFACE) {
-#if CLPT_REVSURFACES
-            __global const RevSurface* r = &sc->revsurfaces[hit.index];
-            rev_surface(sc, r, hit, lo + t * ld, &s.p, &s.p_error, &s.n);
-            s.material = r->material;
-#endif
-        } else if (hit.kind == HIT_SPHERE) {
+#if CLPT_SPHERES
+        if (hit.kind == HIT_SPHERE) {
             sphere_surface(&sc->spheres[hit.index], lo, ld, t, &s.p, &s.n, &s.p_error);
-            s.material = sc->spheres[hit.index].material;
-        } else {
-            plane_surface(&sc->planes[hit.index], lo, ld, t, &s.p, &s.n, &s.p_error);
-            s.material = sc->planes[hit.index].material;
         }
+#endif
+#if CLPT_PLANES
+        if (hit.kind == HIT_PLANE) {
+            plane_surface(&sc->planes[hit.index], lo, ld, t, &s.p, &s.n, &s.p_error);
+        }
+#endif
+#if CLPT_REVSURFACES
+        if (hit.kind == HIT_REVSURFACE) {
+            rev_surface(sc, &sc->revsurfaces[hit.index], hit, lo + t * ld, &s.p, &s.p_error,
+                        &s.n);
+        }
+#endif
         s.ns = s.n;
     }
     s.p_local = s.p;
     s.n_local = s.n;
     s.transform = transform;
+#if CLPT_TRANSFORMS
     if (transform != TRANSFORM_NONE) {
         __global const Transform* x = &sc->transforms[transform];
         s.p_error = xform_point_error(x->m, s.p, s.p_error);
@@ -340,30 +379,38 @@ inline Surface scene_surface(const Scene* sc, Hit hit, float3 o, float3 d) {
         s.n = xform_normal(x->inv, s.n);
         s.ns = xform_normal(x->inv, s.ns);
     }
+#endif
     return s;
 }
 
+#if CLPT_TEXTURES
 /* Where a hit falls on its object's texture: (u, v) and the world directions of increasing u
  * and v (for bump maps). Meshes carry no texture coordinates (the loader refuses maps on them). */
 inline float2 scene_mapping(const Scene* sc, Hit hit, Surface s, float3* dpdu, float3* dpdv) {
-    float2 uv;
+    float2 uv = (float2)(0.0f, 0.0f);
+    *dpdu = (float3)(1.0f, 0.0f, 0.0f);
+    *dpdv = (float3)(0.0f, 1.0f, 0.0f);
+#if CLPT_SPHERES
     if (hit.kind == HIT_SPHERE) {
         sphere_tangents(s.n_local, dpdu, dpdv);
         uv = sphere_uv(s.n_local);
-    } else if (hit.kind == HIT_PLANE) {
+    }
+#endif
+#if CLPT_PLANES
+    if (hit.kind == HIT_PLANE) {
         plane_tangents(&sc->planes[hit.index], dpdu, dpdv);
         uv = plane_uv(&sc->planes[hit.index], s.p_local);
-    } else {
-        *dpdu = (float3)(1.0f, 0.0f, 0.0f);
-        *dpdv = (float3)(0.0f, 1.0f, 0.0f);
-        return (float2)(0.0f, 0.0f);
     }
-    if (s.transform != TRANSFORM_NONE) {
+#endif
+#if CLPT_TRANSFORMS
+    if (s.transform != TRANSFORM_NONE && (hit.kind == HIT_SPHERE || hit.kind == HIT_PLANE)) {
         __global const float* m = sc->transforms[s.transform].m;
         *dpdu = normalize(xform_vector(m, *dpdu));
         *dpdv = normalize(xform_vector(m, *dpdv));
     }
+#endif
     return uv;
 }
+#endif
 
 #endif

@@ -19,7 +19,9 @@
 #include "ray.h"
 #include "camera.h"
 #include "objects.h"
+#if CLPT_TEXTURES
 #include "texture.h"
+#endif
 #include "material.h"
 
 #define RR_MAX_SURVIVAL 0.95f
@@ -39,6 +41,7 @@ inline SurfaceMaterial material_at(const Scene* sc, Hit hit, Surface s) {
     sm.color = vload3(0, m->color);
     sm.shading_normal = s.ns;
     sm.type = m->type;
+#if CLPT_TEXTURES
     if ((m->color_map & m->emission_map & m->type_map & m->bump_map) == MAP_NONE) {
         return sm; /* no maps */
     }
@@ -58,6 +61,7 @@ inline SurfaceMaterial material_at(const Scene* sc, Hit hit, Surface s) {
         const float2 g = texture_lookup(sc->maps, sc->texels, m->bump_map, uv, filter).xy;
         sm.shading_normal = bump_normal(s.ns, dpdu, dpdv, g);
     }
+#endif
     return sm;
 }
 

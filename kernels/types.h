@@ -9,6 +9,8 @@
 #ifndef CLPT_TYPES_H
 #define CLPT_TYPES_H
 
+#include "features.h"
+
 /* Compile-time size check that works in OpenCL C 1.2 (C99 has no _Static_assert). */
 #define CLPT_ASSERT_SIZE(T, n) typedef char clpt_size_check_##T[(sizeof(T) == (n)) ? 1 : -1]
 

@@ -2,7 +2,8 @@
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
-use clpt::device::{self, program::KernelSources};
+use clpt::device::program::{CacheUse, KernelSources};
+use clpt::device::{self};
 use clpt::render::bench::{BenchResult, bench_scene};
 use clpt::render::{ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter};
 use clpt::scene::{Scene, builtin};
@@ -88,6 +89,32 @@ struct SamplingArgs {
 }
 
 #[derive(Args)]
+struct ProgramArgs {
+    /// Build the program with every feature, not only those the scene uses.
+    #[arg(long)]
+    all_features: bool,
+    /// Always build the program from source; neither read nor write the program cache.
+    #[arg(long)]
+    no_cache: bool,
+    /// The program cache's folder [default: $CLPT_CACHE_DIR, else
+    /// $XDG_CACHE_HOME/clpt/programs, else ~/.cache/clpt/programs]
+    #[arg(long, value_name = "DIR")]
+    cache_dir: Option<PathBuf>,
+}
+
+impl ProgramArgs {
+    fn cache_dir(&self) -> Option<PathBuf> {
+        if self.no_cache {
+            None
+        } else {
+            self.cache_dir
+                .clone()
+                .or_else(clpt::device::cache::default_dir)
+        }
+    }
+}
+
+#[derive(Args)]
 struct RenderArgs {
     /// Scene file (seed dialect, see README); the built-in smallpt room if omitted.
     scene: Option<PathBuf>,
@@ -104,8 +131,15 @@ struct RenderArgs {
     #[command(flatten)]
     sampling: SamplingArgs,
     #[command(flatten)]
+    program: ProgramArgs,
+    #[command(flatten)]
     device: DeviceArgs,
-    /// Print the device, the build options and timings.
+    /// Write the exact program source that was built (includes expanded, switched-off code
+    /// left out) to FILE.
+    #[arg(long, value_name = "FILE")]
+    dump_kernel: Option<PathBuf>,
+    /// Print the device, the scene's features, the build options, the program cache and
+    /// timings.
     #[arg(short, long)]
     verbose: bool,
     /// No progress bar.
@@ -122,6 +156,8 @@ struct BenchArgs {
     spp: u32,
     #[command(flatten)]
     sampling: SamplingArgs,
+    #[command(flatten)]
+    program: ProgramArgs,
     #[command(flatten)]
     device: DeviceArgs,
 }
@@ -143,7 +179,12 @@ fn load_scene(path: Option<&Path>, sampling: &SamplingArgs) -> Result<Scene> {
     Ok(scene)
 }
 
-fn options(sampling: &SamplingArgs, spp: Option<u32>, time: Option<f64>) -> Result<RenderOptions> {
+fn options(
+    sampling: &SamplingArgs,
+    program: &ProgramArgs,
+    spp: Option<u32>,
+    time: Option<f64>,
+) -> Result<RenderOptions> {
     let time_limit = match time {
         Some(t) if t.is_finite() && t > 0.0 => Some(Duration::from_secs_f64(t)),
         Some(t) => bail!("--time must be a positive number of seconds, got {t}"),
@@ -164,6 +205,8 @@ fn options(sampling: &SamplingArgs, spp: Option<u32>, time: Option<f64>) -> Resu
         texture_filter: sampling.texture_filter,
         max_texture_pixels: sampling.max_texture_pixels,
         object_bvh: sampling.object_bvh,
+        all_features: program.all_features,
+        cache_dir: program.cache_dir(),
         ..RenderOptions::default()
     })
 }
@@ -178,7 +221,7 @@ fn default_output(scene: Option<&Path>) -> PathBuf {
 
 fn render(args: &RenderArgs) -> Result<()> {
     let scene = load_scene(args.scene.as_deref(), &args.sampling)?;
-    let options = options(&args.sampling, args.spp, args.time)?;
+    let options = options(&args.sampling, &args.program, args.spp, args.time)?;
     let output = args
         .output
         .clone()
@@ -188,12 +231,28 @@ fn render(args: &RenderArgs) -> Result<()> {
         eprintln!("device: {}", device.description);
     }
     let mut renderer = Renderer::new(&device, &scene, &sources, options.clone())?;
+    if let Some(path) = &args.dump_kernel {
+        std::fs::write(path, &renderer.program.source.text)
+            .with_context(|| format!("writing the program source to {}", path.display()))?;
+    }
     if args.verbose {
-        eprintln!(
-            "program: built in {:.2} s, options `{}`",
-            renderer.program.build_time.as_secs_f64(),
-            renderer.program.options
-        );
+        eprintln!("features: {}", renderer.features);
+        let program = &renderer.program;
+        let seconds = program.build_time.as_secs_f64();
+        let origin = match &program.cache {
+            CacheUse::Off => format!("built in {seconds:.2} s (no program cache)"),
+            CacheUse::Hit(path) => {
+                format!(
+                    "loaded from the cache in {seconds:.2} s ({})",
+                    path.display()
+                )
+            }
+            CacheUse::Stored(path) => {
+                format!("built in {seconds:.2} s, cached as {}", path.display())
+            }
+            CacheUse::NotStored(why) => format!("built in {seconds:.2} s, not cached: {why}"),
+        };
+        eprintln!("program: {origin}, options `{}`", program.options);
         eprintln!(
             "scene: {} ({}x{}), {} materials, {} spheres, {} planes, {} mesh instances, {} transforms",
             scene.source,
@@ -267,7 +326,7 @@ fn bench(args: &BenchArgs) -> Result<()> {
     for path in scenes {
         let name = path.map_or(builtin::NAME.to_string(), |p| p.display().to_string());
         let scene = load_scene(path, &args.sampling).with_context(|| name.clone())?;
-        let options = options(&args.sampling, Some(args.spp), None)?;
+        let options = options(&args.sampling, &args.program, Some(args.spp), None)?;
         let result = bench_scene(&device, &sources, &name, &scene, options)?;
         println!("{}", result.markdown_row());
     }

@@ -16,7 +16,7 @@ fn device_layout_matches_rust() {
 fn every_kernel_program_builds() {
     let device = common::device();
     for entry in ["pathtracer.cl", "probes.cl"] {
-        program::build_entry(&device, &KernelSources::Embedded, entry, String::new())
+        program::build_entry(&device, &KernelSources::Embedded, entry, &[], None)
             .unwrap_or_else(|e| panic!("{entry}: {e}"));
     }
 }
@@ -42,7 +42,7 @@ fn build_errors_name_the_kernel_file_and_line() {
     .unwrap();
     let device = common::device();
     let sources = KernelSources::Dir(dir.clone());
-    let err = match program::build_entry(&device, &sources, "main.cl", String::new()) {
+    let err = match program::build_entry(&device, &sources, "main.cl", &[], None) {
         Ok(_) => panic!("a kernel using an undeclared name built"),
         Err(e) => e.to_string(),
     };
@@ -53,19 +53,21 @@ fn build_errors_name_the_kernel_file_and_line() {
     assert!(err.contains("undeclared_name"), "build log missing:\n{err}");
 
     std::fs::write(dir.join("cycle.h"), "#include \"cycle.h\"\n").unwrap();
-    let err = sources.expand("cycle.h").unwrap_err().to_string();
+    let err = sources.expand("cycle.h", &[]).unwrap_err().to_string();
     assert!(err.contains("cycle"), "{err}");
-    let err = sources.expand("missing.cl").unwrap_err().to_string();
+    let err = sources.expand("missing.cl", &[]).unwrap_err().to_string();
     assert!(err.contains("missing.cl"), "{err}");
     std::fs::write(dir.join("angle.cl"), "#include <stdio.h>\n").unwrap();
-    let err = sources.expand("angle.cl").unwrap_err().to_string();
+    let err = sources.expand("angle.cl", &[]).unwrap_err().to_string();
     assert!(err.contains("angle.cl:1"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn expansion_emits_line_markers_and_includes_each_file_once() {
-    let expanded = KernelSources::Embedded.expand("pathtracer.cl").unwrap();
+    let expanded = KernelSources::Embedded
+        .expand("pathtracer.cl", &[])
+        .unwrap();
     let src = &expanded.text;
     assert!(src.starts_with("#line 1 \"pathtracer.cl\"\n"));
     assert_eq!(src.matches("#line 1 \"types.h\"").count(), 1);
@@ -84,7 +86,9 @@ fn expansion_emits_line_markers_and_includes_each_file_once() {
 
 #[test]
 fn logs_of_compilers_that_ignore_line_markers_are_mapped_back() {
-    let expanded = KernelSources::Embedded.expand("pathtracer.cl").unwrap();
+    let expanded = KernelSources::Embedded
+        .expand("pathtracer.cl", &[])
+        .unwrap();
     let n = expanded
         .text
         .lines()

@@ -20,11 +20,13 @@ export CLPT_DEVICE=NVIDIA
   echo "## cargo bench --bench revsurface (goblet alone), degree 3 compiled in"
   ./bench_revsurface
   echo "## the same, degree read at run time"
-  CLPT_BENCH_OPTIONS=" " ./bench_revsurface
+  CLPT_BENCH_REV_DEGREE=0 ./bench_revsurface
 } > $OUT/bench_revsurface.txt 2>&1; cat $OUT/bench_revsurface.txt
 {
-  echo "## H200, cold build (CUDA_CACHE_DISABLE=1), 256 spp"
-  CUDA_CACHE_DISABLE=1 ./clpt bench scenes/smallpt.txt $seed/case2_softshadows_colorbleeding.txt $seed/case0_texture.txt scenes/textures.txt scenes/meshes.txt $seed/case1_dof_mesh.txt $seed/case3_wineglass.txt scenes/goblet.txt tools/dragon_rays.txt --spp 256
+  echo "## H200, cold build (CUDA_CACHE_DISABLE=1), 256 spp: each scene's own program, then all features"
+  for features in "" --all-features; do
+    CUDA_CACHE_DISABLE=1 ./clpt bench scenes/smallpt.txt $seed/case0_texture.txt $seed/case1_dof_mesh.txt $seed/case2_softshadows_colorbleeding.txt $seed/case3_wineglass.txt $seed/case4_planets.txt $seed/case5_light_balls.txt scenes/goblet.txt tools/dragon_rays.txt --spp 256 $features
+  done
 } 2>&1 | grep -v warning > $OUT/bench.txt; cat $OUT/bench.txt
 {
   echo "## case3_wineglass.txt at the original's 1920x1080, 1000 spp (original: 9653 s on an RTX 2060 Super)"

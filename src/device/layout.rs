@@ -386,7 +386,7 @@ pub fn verify(
         })
         .collect();
     let source = sources.expand_text("layout_probe.cl", &probe_source())?;
-    let built = super::program::build(device, source, super::program::build_options(&[]))?;
+    let built = super::program::build(device, source, super::program::build_options(&[]), None)?;
     let out = ocl::Buffer::<u32>::builder()
         .queue(device.queue.clone())
         .len(expected.len())

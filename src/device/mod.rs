@@ -1,7 +1,8 @@
 //! OpenCL platforms and devices: discovery, choice (`--device`, `CLPT_DEVICE`), and the
-//! context and queue a render runs on. Kernel building lives in [`program`], the shared struct
-//! layouts in [`layout`], packing and uploading the scene in [`upload`].
+//! context and queue a render runs on. Kernel building lives in [`program`] (its on-disk cache in
+//! [`cache`]), the shared struct layouts in [`layout`], packing and uploading the scene in [`upload`].
 
+pub mod cache;
 pub mod layout;
 pub mod program;
 pub mod upload;
@@ -19,6 +20,8 @@ pub struct DeviceDescription {
     /// Position in the list of all devices of all platforms, as `--device` takes it.
     pub index: usize,
     pub platform: String,
+    /// The platform's version string (part of the program cache's key).
+    pub platform_version: String,
     pub name: String,
     pub kind: String,
     pub compute_units: u32,
@@ -82,6 +85,7 @@ fn describe(index: usize, platform: &ocl::Platform, device: &ocl::Device) -> Dev
         platform: platform
             .name()
             .unwrap_or_else(|_| "<unknown platform>".into()),
+        platform_version: platform.version().unwrap_or_default(),
         name: device.name().unwrap_or_else(|_| "<unknown device>".into()),
         kind: kind.into(),
         compute_units,

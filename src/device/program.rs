@@ -1,7 +1,8 @@
 //! The one kernel loader: reads kernel sources (embedded in the binary, or from `--kernels DIR`),
 //! resolves `#include "file"` once per file, emits `#line` so the compiler's messages name the
-//! kernel file and line, takes every build option from [`build_options`], and puts the build
-//! log into the error when a build fails. Compilers that ignore `#line` (NVIDIA's reports
+//! kernel file and line, drops the text of `#if CLPT_X` blocks whose program switch is off
+//! (kernels/features.h), takes every build option from [`build_options`], caches built
+//! programs ([`super::cache`]), and puts the build log into the error when a build fails. Compilers that ignore `#line` (NVIDIA's reports
 //! `<kernel>:LINE:COL`) have their messages mapped back to file and line through the line map
 //! of [`ExpandedSource`].
 
@@ -13,6 +14,7 @@ use std::time::{Duration, Instant};
 
 /// Every file of `kernels/`, compiled into the binary so an installed clpt needs no sources.
 const EMBEDDED: &[(&str, &str)] = &[
+    ("features.h", include_str!("../../kernels/features.h")),
     ("types.h", include_str!("../../kernels/types.h")),
     ("vecmath.h", include_str!("../../kernels/vecmath.h")),
     ("texture.h", include_str!("../../kernels/texture.h")),
@@ -49,9 +51,26 @@ pub struct ExpandedSource {
     pub text: String,
     /// (file, 1-based line) of each line of `text`; `#line` markers map to the line they name.
     lines: Vec<(String, usize)>,
+    /// Program switches known to be on or off while expanding.
+    switches: Vec<(String, bool)>,
+}
+
+/// An open conditional block while expanding a file: one on a known program switch (its text
+/// is kept or dropped here), or any other, passed to the compiler.
+enum Block {
+    Switch { on: bool, in_else: bool },
+    Other,
 }
 
 impl ExpandedSource {
+    /// Whether the program switch `name` is on, if expanding knows it.
+    fn switch(&self, name: &str) -> Option<bool> {
+        self.switches
+            .iter()
+            .find(|(k, _)| k == name)
+            .map(|&(_, on)| on)
+    }
+
     fn push(&mut self, line: &str, file: &str, number: usize) {
         self.text.push_str(line);
         self.text.push('\n');
@@ -101,9 +120,21 @@ impl KernelSources {
         }
     }
 
-    /// The complete program source for `entry`: includes resolved, `#line` markers emitted.
-    pub fn expand(&self, entry: &str) -> Result<ExpandedSource> {
-        let mut out = ExpandedSource::default();
+    /// The complete program source for `entry`: includes resolved, `#line` markers emitted,
+    /// and the blocks of switches that `defines` turns off (`#if CLPT_X` with `CLPT_X=0`)
+    /// left out, includes in them too.
+    pub fn expand(&self, entry: &str, defines: &[(&str, String)]) -> Result<ExpandedSource> {
+        let mut out = ExpandedSource {
+            switches: defines
+                .iter()
+                .filter_map(|(k, v)| match v.as_str() {
+                    "0" => Some((k.to_string(), false)),
+                    "1" => Some((k.to_string(), true)),
+                    _ => None,
+                })
+                .collect(),
+            ..ExpandedSource::default()
+        };
         self.expand_into(entry, &mut out, &mut Vec::new(), &mut Vec::new())?;
         Ok(out)
     }
@@ -155,7 +186,54 @@ impl KernelSources {
         stack: &mut Vec<String>,
     ) -> Result<()> {
         out.push(&format!("#line 1 \"{name}\""), name, 1);
+        let mut blocks: Vec<Block> = Vec::new();
+        let mut resync = false; // lines were dropped: the next kept one needs a #line
         for (i, line) in text.lines().enumerate() {
+            let kept = |blocks: &[Block]| {
+                blocks.iter().all(|b| match b {
+                    Block::Switch { on, in_else } => on != in_else,
+                    Block::Other => true,
+                })
+            };
+            let was_kept = kept(&blocks);
+            match directive(line) {
+                Some(("if", cond)) if out.switch(cond).is_some() => {
+                    let on = out.switch(cond).unwrap_or(true);
+                    blocks.push(Block::Switch { on, in_else: false });
+                    resync = true;
+                    continue;
+                }
+                Some(("if" | "ifdef" | "ifndef", _)) => blocks.push(Block::Other),
+                Some(("else", _)) => {
+                    if let Some(Block::Switch { in_else, .. }) = blocks.last_mut() {
+                        *in_else = true;
+                        resync = true;
+                        continue;
+                    }
+                }
+                Some(("elif", _)) if matches!(blocks.last(), Some(Block::Switch { .. })) => {
+                    return Err(Error::KernelSource(format!(
+                        "{name}:{}: `#elif` after a program switch's `#if`: use `#else` and \
+                         a nested `#if`",
+                        i + 1
+                    )));
+                }
+                Some(("endif", _)) => {
+                    if let Some(Block::Switch { .. }) = blocks.pop() {
+                        resync = true;
+                        continue;
+                    }
+                }
+                _ => {}
+            }
+            if !was_kept {
+                resync = true;
+                continue;
+            }
+            if resync {
+                out.push(&format!("#line {} \"{name}\"", i + 1), name, i + 1);
+                resync = false;
+            }
             match include_target(line) {
                 Some(Ok(target)) => {
                     self.expand_into(target, out, done, stack)
@@ -186,6 +264,15 @@ impl KernelSources {
     }
 }
 
+/// A preprocessor line's directive and the rest: `("if", "CLPT_MESHES")` for `#if CLPT_MESHES`.
+fn directive(line: &str) -> Option<(&str, &str)> {
+    let rest = line.trim_start().strip_prefix('#')?.trim_start();
+    let end = rest
+        .find(|c: char| !c.is_ascii_alphabetic())
+        .unwrap_or(rest.len());
+    Some((&rest[..end], rest[end..].trim()))
+}
+
 /// `Some(Ok(file))` for `#include "file"`, `Some(Err)` for another `#include` form.
 fn include_target(line: &str) -> Option<std::result::Result<&str, ()>> {
     let rest = line.trim_start().strip_prefix('#')?.trim_start();
@@ -208,21 +295,55 @@ pub fn build_options(defines: &[(&str, String)]) -> String {
         .join(" ")
 }
 
+/// Where a built program came from, as `-v` reports it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum CacheUse {
+    /// No cache (`--no-cache`, or no cache folder known).
+    Off,
+    /// Loaded from this cached binary.
+    Hit(PathBuf),
+    /// Built from source and stored here.
+    Stored(PathBuf),
+    /// Built from source; storing it failed for this reason (the render goes on).
+    NotStored(String),
+}
+
 /// A built program with what went into it.
 pub struct BuiltProgram {
     pub program: ocl::Program,
     pub source: ExpandedSource,
     pub options: String,
+    /// Creating and building the program: from source, or from the cached binary.
     pub build_time: Duration,
+    pub cache: CacheUse,
 }
 
-/// Builds a complete (already expanded) source for `device`.
-pub fn build(device: &Device, source: ExpandedSource, options: String) -> Result<BuiltProgram> {
+/// Builds a complete (already expanded) source for `device`, or loads its binary from the
+/// program cache at `cache` (see [`super::cache`]) and stores it there after a build.
+pub fn build(
+    device: &Device,
+    source: ExpandedSource,
+    options: String,
+    cache: Option<&Path>,
+) -> Result<BuiltProgram> {
     let start = Instant::now();
-    let src = CString::new(source.text.clone())
-        .map_err(|_| Error::KernelSource("kernel source contains a NUL byte".into()))?;
     let opts = CString::new(options.clone())
         .map_err(|_| Error::KernelSource("build options contain a NUL byte".into()))?;
+    let key = cache.map(|dir| (dir, super::cache::key(device, &source.text, &options)));
+    if let Some((dir, key)) = &key
+        && let Some(binary) = super::cache::load(dir, key)
+        && let Ok(program) = from_binary(device, &binary, &opts)
+    {
+        return Ok(BuiltProgram {
+            program,
+            source,
+            options,
+            build_time: start.elapsed(),
+            cache: CacheUse::Hit(dir.join(key)),
+        });
+    }
+    let src = CString::new(source.text.clone())
+        .map_err(|_| Error::KernelSource("kernel source contains a NUL byte".into()))?;
     let program = ocl::core::create_program_with_source(&device.context, &[src])
         .map_err(|e| Error::opencl("creating the program", e))?;
     if let Err(e) = ocl::core::build_program(&program, Some(&[device.device]), &opts, None, None) {
@@ -241,22 +362,58 @@ pub fn build(device: &Device, source: ExpandedSource, options: String) -> Result
             log,
         });
     }
+    let build_time = start.elapsed();
+    let cache = match &key {
+        None => CacheUse::Off,
+        Some((dir, key)) => {
+            match ocl::core::get_program_info(&program, ocl::enums::ProgramInfo::Binaries) {
+                Ok(ocl::enums::ProgramInfoResult::Binaries(b))
+                    if b.len() == 1 && !b[0].is_empty() =>
+                {
+                    match super::cache::store(dir, key, &b[0]) {
+                        Ok(()) => CacheUse::Stored(dir.join(key)),
+                        Err(e) => CacheUse::NotStored(format!("{}: {e}", dir.display())),
+                    }
+                }
+                _ => CacheUse::NotStored("the driver gave no program binary".into()),
+            }
+        }
+    };
     Ok(BuiltProgram {
         program: ocl::Program::from(program),
         source,
         options,
-        build_time: start.elapsed(),
+        build_time,
+        cache,
     })
 }
 
-/// Expands and builds the kernel file `entry` of `sources`.
+/// A program from a cached binary, or `Err` when the driver will not take it (it is then
+/// built from source).
+fn from_binary(device: &Device, binary: &[u8], options: &CString) -> Result<ocl::Program> {
+    let program =
+        ocl::core::create_program_with_binary(&device.context, &[device.device], &[binary])
+            .map_err(|e| Error::opencl("loading a cached program", e))?;
+    ocl::core::build_program(&program, Some(&[device.device]), options, None, None)
+        .map_err(|e| Error::opencl("building a cached program", e))?;
+    Ok(ocl::Program::from(program))
+}
+
+/// Expands and builds the kernel file `entry` of `sources` with the program switches and
+/// values `defines`, through the program cache at `cache` when given.
 pub fn build_entry(
     device: &Device,
     sources: &KernelSources,
     entry: &str,
-    options: String,
+    defines: &[(&str, String)],
+    cache: Option<&Path>,
 ) -> Result<BuiltProgram> {
-    build(device, sources.expand(entry)?, options)
+    build(
+        device,
+        sources.expand(entry, defines)?,
+        build_options(defines),
+        cache,
+    )
 }
 
 /// The `kernels/` folder of this checkout, for tests that edit or inspect kernel files.

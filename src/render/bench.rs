@@ -1,5 +1,7 @@
-//! Throughput measurement shared by `clpt bench` and `benches/render.rs`: build (timed), a
-//! one-sample warm-up render, then a timed render.
+//! Throughput measurement shared by `clpt bench` and `benches/render.rs`: a build from source
+//! (cold unless the driver caches programs itself: `CUDA_CACHE_DISABLE=1`,
+//! `POCL_KERNEL_CACHE=0`), a warm start (the whole setup of a render with the program in
+//! clpt's cache), a one-sample warm-up render, then a timed render.
 
 use super::{RenderOptions, Renderer};
 use crate::device::Device;
@@ -14,8 +16,12 @@ pub struct BenchResult {
     pub width: u32,
     pub height: u32,
     pub spp: u32,
+    /// "scene" for the program specialised to the scene, "all" for the all-features one.
+    pub program: &'static str,
     /// The first build of the program in this process (cold unless the driver cached it).
     pub build_seconds: f64,
+    /// Setting up a render (scene packing and upload, program from clpt's cache).
+    pub warm_start_seconds: f64,
     pub render_seconds: f64,
     /// Samples per pixel per second.
     pub samples_per_second: f64,
@@ -23,16 +29,18 @@ pub struct BenchResult {
 }
 
 impl BenchResult {
-    pub const MARKDOWN_HEADER: &'static str = "| scene | size | spp | first build s | render s | samples/s (spp/s) | Mpaths/s |\n|---|---|---|---|---|---|---|";
+    pub const MARKDOWN_HEADER: &'static str = "| scene | program | size | spp | first build s | warm start s | render s | samples/s (spp/s) | Mpaths/s |\n|---|---|---|---|---|---|---|---|---|";
 
     pub fn markdown_row(&self) -> String {
         format!(
-            "| {} | {}x{} | {} | {:.2} | {:.3} | {:.2} | {:.2} |",
+            "| {} | {} | {}x{} | {} | {:.2} | {:.3} | {:.3} | {:.2} | {:.2} |",
             self.name,
+            self.program,
             self.width,
             self.height,
             self.spp,
             self.build_seconds,
+            self.warm_start_seconds,
             self.render_seconds,
             self.samples_per_second,
             self.paths_per_second / 1e6
@@ -51,12 +59,25 @@ pub fn bench_scene(
     let warm_up = RenderOptions {
         spp: Some(1),
         time_limit: None,
+        cache_dir: None,
         ..options.clone()
     };
-    let mut renderer = Renderer::new(device, scene, sources, warm_up)?;
+    let mut renderer = Renderer::new(device, scene, sources, warm_up.clone())?;
     let build_seconds = renderer.program.build_time.as_secs_f64();
     renderer.render(&mut |_| {})?;
     drop(renderer);
+    // A cache of its own, so that the first setup stores and the second, timed, loads.
+    let cache_dir = std::env::temp_dir().join(format!("clpt-bench-cache-{}", std::process::id()));
+    let cached = RenderOptions {
+        cache_dir: Some(cache_dir.clone()),
+        ..warm_up
+    };
+    drop(Renderer::new(device, scene, sources, cached.clone())?);
+    let start = std::time::Instant::now();
+    drop(Renderer::new(device, scene, sources, cached)?);
+    let warm_start_seconds = start.elapsed().as_secs_f64();
+    let _ = std::fs::remove_dir_all(&cache_dir);
+    let program = if options.all_features { "all" } else { "scene" };
     let (film, stats) = Renderer::new(device, scene, sources, options)?.render(&mut |_| {})?;
     let render_seconds = stats.elapsed.as_secs_f64();
     Ok(BenchResult {
@@ -64,7 +85,9 @@ pub fn bench_scene(
         width: film.width,
         height: film.height,
         spp: film.spp,
+        program,
         build_seconds,
+        warm_start_seconds,
         render_seconds,
         samples_per_second: film.spp as f64 / render_seconds,
         paths_per_second: stats.paths_per_second,

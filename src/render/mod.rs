@@ -9,6 +9,7 @@
 //! sums, so the image does not depend on how the work was split.
 
 pub mod bench;
+pub mod features;
 pub mod film;
 
 use crate::device::Device;
@@ -17,6 +18,7 @@ use crate::device::program::{self, BuiltProgram, KernelSources};
 use crate::device::upload::{PackedScene, SceneBuffers};
 use crate::error::{Error, Result};
 use crate::scene::Scene;
+use features::Features;
 use film::Film;
 use std::time::{Duration, Instant};
 
@@ -93,6 +95,10 @@ pub struct RenderOptions {
     /// Largest texture image accepted, in pixels.
     pub max_texture_pixels: u64,
     pub object_bvh: ObjectBvh,
+    /// Build the program with every feature instead of only the scene's (benchmarks, tests).
+    pub all_features: bool,
+    /// The program cache's folder ([`crate::device::cache`]); `None`: always build.
+    pub cache_dir: Option<std::path::PathBuf>,
 }
 
 impl Default for RenderOptions {
@@ -107,6 +113,8 @@ impl Default for RenderOptions {
             texture_filter: TextureFilter::Bilinear,
             max_texture_pixels: crate::scene::texture::DEFAULT_MAX_PIXELS,
             object_bvh: ObjectBvh::Auto,
+            all_features: false,
+            cache_dir: None,
         }
     }
 }
@@ -133,6 +141,7 @@ pub struct RenderStats {
 /// A scene loaded on a device, ready to render.
 pub struct Renderer<'d> {
     device: &'d Device,
+    pub features: Features,
     pub program: BuiltProgram,
     pub packed: PackedScene,
     kernel: ocl::Kernel,
@@ -162,35 +171,18 @@ impl<'d> Renderer<'d> {
         };
         let params: RenderParams =
             packed.params(options.seed, options.max_depth, options.rr_depth, filter);
-        // Leave out what the scene does not need: the mesh and revolved-surface code without
-        // such objects, the BVH traversal where a loop over few objects is faster.
-        let use_bvh = match options.object_bvh {
-            ObjectBvh::Auto => packed.objects.len() >= BVH_MIN_OBJECTS,
-            ObjectBvh::On => true,
-            ObjectBvh::Off => false,
+        // Leave out what the scene does not need (features.rs, kernels/features.h).
+        let features = if options.all_features {
+            Features::all(scene, options.object_bvh)
+        } else {
+            Features::of(scene, options.object_bvh)
         };
-        // One degree for all revolved surfaces lets the kernels unroll their loops.
-        let rev_degree = match packed.revsurfaces.split_first() {
-            Some((first, rest)) if rest.iter().all(|r| r.degree == first.degree) => first.degree,
-            _ => 0,
-        };
-        let defines = [
-            (
-                "CLPT_MESHES",
-                (!packed.meshes.is_empty() as u32).to_string(),
-            ),
-            ("CLPT_BVH", (use_bvh as u32).to_string()),
-            (
-                "CLPT_REVSURFACES",
-                (!packed.revsurfaces.is_empty() as u32).to_string(),
-            ),
-            ("CLPT_REV_DEGREE", rev_degree.to_string()),
-        ];
         let program = program::build_entry(
             device,
             sources,
             "pathtracer.cl",
-            program::build_options(&defines),
+            &features.defines(),
+            options.cache_dir.as_deref(),
         )?;
         let scene_buffers = SceneBuffers::new(device, &packed, &params)?;
         let pixels = packed.camera.width as usize * packed.camera.height as usize;
@@ -224,6 +216,7 @@ impl<'d> Renderer<'d> {
             .map_err(|e| Error::opencl("creating the render kernel", e))?;
         Ok(Renderer {
             device,
+            features,
             program,
             packed,
             kernel,

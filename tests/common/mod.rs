@@ -36,7 +36,7 @@ use clpt::device::program::{self, KernelSources};
 
 /// The probes program (kernels/probes.cl) built for `device`.
 pub fn probes(device: &Device) -> ocl::Program {
-    program::build_entry(device, &KernelSources::Embedded, "probes.cl", String::new())
+    program::build_entry(device, &KernelSources::Embedded, "probes.cl", &[], None)
         .unwrap_or_else(|e| panic!("{e}"))
         .program
 }

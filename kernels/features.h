@@ -1,0 +1,51 @@
+/* features.h: the program switches, one place on the device side (the host's is
+ * src/render/features.rs, which derives them from the scene).
+ *
+ * Reads: the -D options the program was built with. Writes: nothing. Why: a scene should not
+ * carry code it does not use (larger programs spill registers and run slower on GPUs, and
+ * build slower everywhere). Each switch is 0 or 1; a program built without options (the test
+ * probes) gets every feature. The kernel loader (src/device/program.rs) also drops the text of
+ * `#if CLPT_X` blocks whose switch is 0, so `--dump-kernel` shows exactly what was compiled.
+ *
+ *   CLPT_SPHERES      spheres (sphere.h)
+ *   CLPT_PLANES       planes (plane.h)
+ *   CLPT_MESHES       triangle meshes: kd-tree traversal, watertight triangles
+ *   CLPT_REVSURFACES  surfaces of revolution: root isolation and Newton (revsurface.h)
+ *   CLPT_REV_DEGREE   the one degree of every revolved surface (loops unrolled), 0: mixed
+ *   CLPT_BVH          the object BVH (bvh.h); 0: objects are tested kind by kind in a loop
+ *   CLPT_TRANSFORMS   objects inside Transform (transform.h's matrices applied per ray)
+ *   CLPT_TEXTURES     texture maps of any kind (texture.h, texture coordinates, bump frames)
+ *   CLPT_THIN_LENS    depth of field (the camera's lens sampling); 0: a pinhole
+ */
+#ifndef CLPT_FEATURES_H
+#define CLPT_FEATURES_H
+
+#ifndef CLPT_SPHERES
+#define CLPT_SPHERES 1
+#endif
+#ifndef CLPT_PLANES
+#define CLPT_PLANES 1
+#endif
+#ifndef CLPT_MESHES
+#define CLPT_MESHES 1
+#endif
+#ifndef CLPT_REVSURFACES
+#define CLPT_REVSURFACES 1
+#endif
+#ifndef CLPT_REV_DEGREE
+#define CLPT_REV_DEGREE 0
+#endif
+#ifndef CLPT_BVH
+#define CLPT_BVH 1
+#endif
+#ifndef CLPT_TRANSFORMS
+#define CLPT_TRANSFORMS 1
+#endif
+#ifndef CLPT_TEXTURES
+#define CLPT_TEXTURES 1
+#endif
+#ifndef CLPT_THIN_LENS
+#define CLPT_THIN_LENS 1
+#endif
+
+#endif

@@ -1,0 +1,298 @@
+//! Per-scene specialisation and the program cache: each of the original's test scenes maps to
+//! the feature set its file describes; the program built for a sphere-only scene contains no
+//! kd-tree, Newton, texture, transform or lens code (checked on the exact source built, as
+//! `--dump-kernel` writes it); for the same seed the specialised and the all-features programs
+//! render identical images; the cache returns what it stored, keyed so that other options miss,
+//! and a damaged cache file is rebuilt from source.
+
+mod common;
+
+use clpt::device::program::{self, CacheUse, KernelSources};
+use clpt::render::features::Features;
+use clpt::render::{ObjectBvh, RenderOptions, Renderer};
+use clpt::scene::Scene;
+use std::path::Path;
+
+/// Code that only some scenes need: a function of each switchable part.
+const SWITCHED_CODE: [(&str, &str); 7] = [
+    ("kdtree_intersect(", "kd-tree"),
+    ("rev_newton(", "Newton"),
+    ("texture_lookup(", "texture"),
+    ("xform_point(", "transform"),
+    ("concentric_disk(", "thin lens"),
+    ("bvh_intersect(", "BVH"),
+    ("triangle_intersect(", "triangle"),
+];
+
+fn features(name: &str) -> Option<Features> {
+    let dir = common::seed_dir("original_testcases_map_to_their_features")?;
+    let scene = Scene::load(&dir.join("testcases").join(name)).unwrap_or_else(|e| panic!("{e}"));
+    Some(Features::of(&scene, ObjectBvh::Auto))
+}
+
+#[test]
+fn original_testcases_map_to_their_features() {
+    // (file, spheres, planes, meshes, revolved surfaces, transforms, maps (colour, emission,
+    // type, bump), thin lens, glass, emitters)
+    type Row = (&'static str, [bool; 5], [bool; 4], bool, bool, usize);
+    let expected: [Row; 7] = [
+        (
+            "case0_texture.txt",
+            [true, true, false, false, false],
+            [true, false, true, true],
+            false,
+            true,
+            2,
+        ),
+        (
+            "case1_dof_mesh.txt",
+            [true, true, true, false, true],
+            [true, false, true, false],
+            true,
+            true,
+            2,
+        ),
+        (
+            "case2_softshadows_colorbleeding.txt",
+            [false, true, false, false, false],
+            [false; 4],
+            false,
+            false,
+            2,
+        ),
+        (
+            "case3_wineglass.txt",
+            [true, true, false, true, true],
+            [true, false, true, false],
+            false,
+            true,
+            2,
+        ),
+        (
+            "case4_planets.txt",
+            [true, false, false, false, false],
+            [true, true, false, false],
+            false,
+            false,
+            1,
+        ),
+        (
+            "case5_light_balls.txt",
+            [true, true, false, false, false],
+            [false; 4],
+            false,
+            false,
+            1,
+        ),
+        (
+            "scene08_core.txt",
+            [false, false, false, true, true],
+            [false; 4],
+            false,
+            false,
+            0,
+        ),
+    ];
+    for (file, kinds, maps, thin_lens, glass, emitters) in expected {
+        let Some(f) = features(file) else { return };
+        let got = (
+            [f.spheres, f.planes, f.meshes, f.revsurfaces, f.transforms],
+            [f.color_maps, f.emission_maps, f.type_maps, f.bump_maps],
+            f.thin_lens,
+            f.glass,
+            f.emitters,
+        );
+        assert_eq!(
+            got,
+            (kinds, maps, thin_lens, glass, emitters),
+            "{file}: {f}"
+        );
+        assert!(!f.bvh, "{file}: under 32 objects, no BVH");
+        assert_eq!(f.rev_degree, if f.revsurfaces { 3 } else { 0 }, "{file}");
+    }
+}
+
+#[test]
+fn a_sphere_only_program_carries_no_other_code() {
+    let scene = clpt::scene::builtin::scene().unwrap();
+    let specialised = Features::of(&scene, ObjectBvh::Auto);
+    let all = Features::all(&scene, ObjectBvh::On);
+    let source = |f: &Features| {
+        KernelSources::Embedded
+            .expand("pathtracer.cl", &f.defines())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .text
+    };
+    let (small, full) = (source(&specialised), source(&all));
+    for (code, what) in SWITCHED_CODE {
+        assert!(
+            full.contains(code),
+            "the all-features program lacks {what} code `{code}`"
+        );
+        assert!(
+            !small.contains(code),
+            "smallpt's program has {what} code `{code}`"
+        );
+    }
+    assert!(
+        small.contains("sphere_intersect("),
+        "smallpt's program lacks spheres"
+    );
+    assert!(
+        small.lines().count() * 2 < full.lines().count(),
+        "smallpt's program is {} lines, all features {}",
+        small.lines().count(),
+        full.lines().count()
+    );
+    // The device compiles it, and what `-v` calls the options is what went in.
+    let device = common::device();
+    let built = program::build_entry(
+        &device,
+        &KernelSources::Embedded,
+        "pathtracer.cl",
+        &specialised.defines(),
+        None,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(built.source.text, small);
+    assert!(
+        built.options.contains("-DCLPT_MESHES=0") && built.options.contains("-DCLPT_SPHERES=1")
+    );
+    assert_eq!(built.cache, CacheUse::Off);
+}
+
+#[test]
+fn switched_off_blocks_keep_line_numbers_true() {
+    let dir = tempdir("lines");
+    std::fs::write(
+        dir.join("main.cl"),
+        "a\n#if CLPT_X\nx1\nx2\n#else\ny\n#endif\n#ifdef OTHER\nz\n#endif\nb\n",
+    )
+    .unwrap();
+    let sources = KernelSources::Dir(dir.clone());
+    let off = sources
+        .expand("main.cl", &[("CLPT_X", "0".into())])
+        .unwrap();
+    let lines: Vec<&str> = off.text.lines().collect();
+    assert!(
+        !off.text.contains("x1") && off.text.contains("y") && off.text.contains("#ifdef OTHER")
+    );
+    // Every kept line still maps to its own line of main.cl.
+    for (i, line) in lines.iter().enumerate() {
+        if let Some(n) = ["a", "y", "z", "b"].iter().position(|s| s == line) {
+            assert_eq!(
+                off.origin(i + 1),
+                Some(("main.cl", [1, 6, 9, 11][n])),
+                "{line}"
+            );
+        }
+    }
+    // `#line` markers after dropped text tell the compiler the same.
+    let y = lines.iter().position(|l| *l == "y").unwrap();
+    assert_eq!(lines[y - 1], "#line 6 \"main.cl\"");
+    let on = sources
+        .expand("main.cl", &[("CLPT_X", "1".into())])
+        .unwrap();
+    assert!(on.text.contains("x1") && !on.text.lines().any(|l| l == "y"));
+    // Unknown switches are the compiler's business.
+    let unknown = sources.expand("main.cl", &[]).unwrap();
+    assert!(unknown.text.contains("#if CLPT_X") && unknown.text.contains("x1"));
+    std::fs::write(dir.join("elif.cl"), "#if CLPT_X\n#elif FOO\n#endif\n").unwrap();
+    let err = sources
+        .expand("elif.cl", &[("CLPT_X", "0".into())])
+        .unwrap_err();
+    assert!(err.to_string().contains("elif.cl:2"), "{err}");
+}
+
+fn render(
+    scene: &Scene,
+    all_features: bool,
+    cache_dir: Option<&Path>,
+) -> (Vec<[f32; 4]>, CacheUse) {
+    let device = common::device();
+    let options = RenderOptions {
+        spp: Some(4),
+        seed: 11,
+        all_features,
+        cache_dir: cache_dir.map(Path::to_path_buf),
+        ..RenderOptions::default()
+    };
+    let mut renderer = Renderer::new(&device, scene, &KernelSources::Embedded, options)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let cache = renderer.program.cache.clone();
+    let film = renderer
+        .render(&mut |_| {})
+        .unwrap_or_else(|e| panic!("{e}"))
+        .0;
+    (film.sum, cache)
+}
+
+fn small(path: &str) -> Scene {
+    // From the working folder where it has the file (a packed device-run/), else the checkout.
+    let path = [
+        Path::new(path).to_path_buf(),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(path),
+    ]
+    .into_iter()
+    .find(|p| p.is_file())
+    .unwrap_or_else(|| panic!("{path} not found"));
+    let mut scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    scene.camera.width = 40;
+    scene.camera.height = 24;
+    scene
+}
+
+#[test]
+fn specialised_and_all_features_programs_render_the_same_bits() {
+    let mut smallpt = clpt::scene::builtin::scene().unwrap();
+    smallpt.camera.width = 40;
+    smallpt.camera.height = 30;
+    // A sphere room; maps, transforms and bump frames; meshes with a thin lens.
+    for scene in [
+        smallpt,
+        small("scenes/textures.txt"),
+        small("scenes/meshes.txt"),
+    ] {
+        let (specialised, _) = render(&scene, false, None);
+        let (all, _) = render(&scene, true, None);
+        assert!(
+            specialised.iter().any(|p| p[..3] != [0.0; 3]),
+            "{}: black",
+            scene.source
+        );
+        assert!(specialised == all, "{}: the programs differ", scene.source);
+    }
+}
+
+#[test]
+fn the_cache_returns_what_it_stored_and_rebuilds_what_it_cannot_read() {
+    let dir = tempdir("cache");
+    let mut scene = clpt::scene::builtin::scene().unwrap();
+    scene.camera.width = 16;
+    scene.camera.height = 12;
+    let (first, use1) = render(&scene, false, Some(&dir));
+    let CacheUse::Stored(path) = use1 else {
+        panic!("not stored: {use1:?}")
+    };
+    let (second, use2) = render(&scene, false, Some(&dir));
+    assert_eq!(use2, CacheUse::Hit(path.clone()));
+    assert!(first == second, "the cached program renders differently");
+    // Other options, another key.
+    let (_, use3) = render(&scene, true, Some(&dir));
+    assert!(
+        matches!(use3, CacheUse::Stored(ref p) if *p != path),
+        "{use3:?}"
+    );
+    // A damaged file is rebuilt from source and replaced.
+    std::fs::write(&path, b"not a program").unwrap();
+    let (third, use4) = render(&scene, false, Some(&dir));
+    assert_eq!(use4, CacheUse::Stored(path));
+    assert!(first == third);
+}
+
+fn tempdir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("clpt-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
