@@ -1,7 +1,7 @@
 //! Throughput measurement shared by `clpt bench` and `benches/render.rs`: a build from source
 //! (cold unless the driver caches programs itself: `CUDA_CACHE_DISABLE=1`,
-//! `POCL_KERNEL_CACHE=0`), a warm start (the whole setup of a render with the program in
-//! clpt's cache), a one-sample warm-up render, then a timed render.
+//! `POCL_KERNEL_CACHE=0`), one small warm-up launch, the timed render, then a warm start (the
+//! whole setup of a render with the program in clpt's cache).
 
 use super::{RenderOptions, Renderer};
 use crate::device::Device;
@@ -56,29 +56,28 @@ pub fn bench_scene(
     scene: &Scene,
     options: RenderOptions,
 ) -> Result<BenchResult> {
-    let warm_up = RenderOptions {
-        spp: Some(1),
-        time_limit: None,
+    // Cold: from source, and no cache of clpt's.
+    let uncached = RenderOptions {
         cache_dir: None,
         ..options.clone()
     };
-    let mut renderer = Renderer::new(device, scene, sources, warm_up.clone())?;
+    let program = if options.all_features { "all" } else { "scene" };
+    let mut renderer = Renderer::new(device, scene, sources, uncached.clone())?;
     let build_seconds = renderer.program.build_time.as_secs_f64();
-    renderer.render(&mut |_| {})?;
+    renderer.warm_up()?;
+    let (film, stats) = renderer.render(&mut |_| {})?;
     drop(renderer);
-    // A cache of its own, so that the first setup stores and the second, timed, loads.
+    // Warm: a cache of its own, so that the first setup stores and the second, timed, loads.
     let cache_dir = std::env::temp_dir().join(format!("clpt-bench-cache-{}", std::process::id()));
     let cached = RenderOptions {
         cache_dir: Some(cache_dir.clone()),
-        ..warm_up
+        ..uncached
     };
     drop(Renderer::new(device, scene, sources, cached.clone())?);
     let start = std::time::Instant::now();
     drop(Renderer::new(device, scene, sources, cached)?);
     let warm_start_seconds = start.elapsed().as_secs_f64();
     let _ = std::fs::remove_dir_all(&cache_dir);
-    let program = if options.all_features { "all" } else { "scene" };
-    let (film, stats) = Renderer::new(device, scene, sources, options)?.render(&mut |_| {})?;
     let render_seconds = stats.elapsed.as_secs_f64();
     Ok(BenchResult {
         name: name.to_string(),

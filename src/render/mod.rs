@@ -264,6 +264,23 @@ impl<'d> Renderer<'d> {
             .map_err(|e| Error::opencl("running the render kernel", e))
     }
 
+    /// One small launch (a band of rows, one sample) whose result is then cleared: it leaves
+    /// the program compiled (PoCL generates machine code at the first launch) and the device
+    /// awake, so that a timed render measures rendering alone.
+    pub fn warm_up(&mut self) -> Result<()> {
+        self.launch(0, self.height().min(GROUP as u32 * 2), 0, 1)?;
+        for film in [&self.sum, &self.sum_sq] {
+            film.cmd()
+                .fill(0.0f32, None)
+                .enq()
+                .map_err(|e| Error::opencl("clearing the film", e))?;
+        }
+        self.device
+            .queue
+            .finish()
+            .map_err(|e| Error::opencl("clearing the film", e))
+    }
+
     /// Renders until the sample count or time limit, calling `on_progress` after every pass.
     pub fn render(
         &mut self,
