@@ -142,3 +142,13 @@ __kernel void probe_rev_work(__global const RevSurface* revsurfaces,
                                          &work);
     vstore3((float3)(t, (float)work.iterations, (float)work.nodes), i, out);
 }
+
+/* Bezier evaluation: input (first point, degree, u) per query over the point array; output
+ * the point and the derivative with respect to u (4 floats). */
+__kernel void probe_bezier(__global const float2* points, __global const uint2* segment,
+                           __global const float* u, __global float4* out) {
+    const uint i = get_global_id(0);
+    float2 s, ds;
+    bezier_eval(points + segment[i].x, segment[i].y, u[i], &s, &ds);
+    out[i] = (float4)(s, ds);
+}

@@ -6,6 +6,8 @@
 //! the device's hit, or a root where the device found none) where the ray does not graze
 //! (|n.d| > 0.01), and no ray spawned from a hit that finds the surface it leaves. Renders of
 //! the goblet are deterministic: the same seed gives the same bits however the work is split.
+//! The device's de Casteljau evaluation (point and derivative) matches the f64 curves for
+//! Bezier curves of degree 1 to 7 and the three profiles.
 
 mod common;
 
@@ -254,4 +256,86 @@ fn goblet_renders_are_deterministic() {
         "same seed, other launch split: different sums"
     );
     assert_ne!(a.sum, c.sum, "another seed gave the same image");
+}
+
+#[test]
+fn device_bezier_eval_matches_the_f64_curves() {
+    let device = common::device();
+    let program = common::probes(&device);
+    let mut rng = SmallRng::seed_from_u64(7);
+    let mut curves: Vec<Curve> = (2..=8)
+        .map(|n| {
+            let controls = (0..n)
+                .map(|_| DVec2::new(rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0)))
+                .collect();
+            Curve::new(CurveKind::Bezier, controls).unwrap()
+        })
+        .collect();
+    curves.extend(profiles().into_iter().map(|(_, c)| c));
+    for curve in curves {
+        let segments = curve.bezier_segments();
+        let m = segments.len();
+        let points: Vec<[f32; 2]> = segments
+            .iter()
+            .flatten()
+            .map(|p| [p.x as f32, p.y as f32])
+            .collect();
+        let degree = curve.degree();
+        // Random parameters, and the ends of every segment.
+        let queries: Vec<(usize, f32)> = (0..4000)
+            .map(|i| match i % 8 {
+                0 => (i % m, 0.0),
+                1 => (i % m, 1.0),
+                _ => (rng.random_range(0..m), rng.random::<f32>()),
+            })
+            .collect();
+        let seg: Vec<[u32; 2]> = queries
+            .iter()
+            .map(|&(k, _)| [(k * (degree + 1)) as u32, degree as u32])
+            .collect();
+        let u: Vec<f32> = queries.iter().map(|&(_, u)| u).collect();
+        let (points_buf, seg_buf, u_buf) = (
+            common::buffer(&device, &points.concat()),
+            common::buffer(&device, &seg.concat()),
+            common::buffer(&device, &u),
+        );
+        let out = common::output::<f32>(&device, queries.len() * 4);
+        let kernel = ocl::Kernel::builder()
+            .program(&program)
+            .name("probe_bezier")
+            .queue(device.queue.clone())
+            .arg(&points_buf)
+            .arg(&seg_buf)
+            .arg(&u_buf)
+            .arg(&out)
+            .build()
+            .unwrap();
+        common::run(&kernel, queries.len());
+        let got = common::read(&out);
+        let size = curve
+            .controls
+            .iter()
+            .map(|p| p.abs().max_element())
+            .fold(0.0, f64::max);
+        for (q, g) in queries.iter().zip(got.chunks_exact(4)) {
+            // Segment k covers s in [k/m, (k+1)/m]: dC/du = dC/ds / m.
+            let s = (q.0 as f64 + q.1 as f64) / m as f64;
+            let (p, dp) = curve.eval(s);
+            let dp = dp / m as f64;
+            let (gp, gd) = (
+                DVec2::new(g[0] as f64, g[1] as f64),
+                DVec2::new(g[2] as f64, g[3] as f64),
+            );
+            // f32 de Casteljau: a few roundings of the control points' size per level.
+            let tol = 4.0 * (degree as f64 + 1.0) * f32::EPSILON as f64 * size;
+            assert!(
+                (gp - p).length() <= tol,
+                "degree {degree} at {s}: {gp} against {p}"
+            );
+            assert!(
+                (gd - dp).length() <= tol * degree as f64 * 2.0,
+                "degree {degree} at {s}: derivative {gd} against {dp}"
+            );
+        }
+    }
 }
