@@ -1,11 +1,12 @@
 /* pathtracer.cl: the render kernel (port of pathtracer.cuh and main.cu's renderPixel).
  *
  * Reads: the whole scene (objects.h's Scene: parameters, materials, objects, textures,
- * meshes and the BVH). Writes: adds, for every pixel of rows [row_start, row_start + row_count), the
- * `sample_count` path samples of indices sample_start... and their squares to `sum` and `sum_sq`
- * (float4 per pixel, .w unused; row 0 is the bottom of the image). Samples are added one at a
- * time onto the running sums, so the image is bit for bit the same however the host splits
- * the work into launches.
+ * meshes and the BVH). Writes: adds, for every pixel of rows [row_start, row_start + row_count),
+ * the `sample_count` path samples of indices sample_start... and their squares to `sum` and
+ * `sum_sq`, and the odd-numbered ones to `sum_odd` (float4 per pixel, .w unused; row 0 is the
+ * bottom of the image). Samples are added one at a time onto the running sums, so the image is
+ * bit for bit the same however the host splits the work into launches. error_rows reduces the
+ * film to the error figures of the per-pass report.
  *
  * Why this shape: one work-item per pixel and a loop over samples, so the host can size each
  * launch (rows x samples) to about 100 ms and never trip a display watchdog. Paths are
@@ -106,9 +107,13 @@ inline float3 trace_path(const Scene* sc, uint px, uint py, uint sample) {
     return radiance;
 }
 
+/* Accumulates sample_count samples from sample_start into every pixel of rows
+ * [row_start, row_start + row_count): the sums of radiance and of its squares, and apart the sum
+ * of the odd-numbered samples, so that the even and odd halves give two independent estimates
+ * of each pixel whose difference measures the error (error_rows). */
 __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum,
-                          __global float4* sum_sq, uint sample_start, uint sample_count,
-                          uint row_start, uint row_count) {
+                          __global float4* sum_sq, __global float4* sum_odd, uint sample_start,
+                          uint sample_count, uint row_start, uint row_count) {
     const Scene scene = SCENE_FROM_KERNEL_ARGS;
     const uint px = get_global_id(0);
     if (px >= params->camera.width || get_global_id(1) >= row_count) {
@@ -118,11 +123,61 @@ __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum,
     const uint pixel = py * params->camera.width + px;
     float4 acc = sum[pixel];
     float4 acc_sq = sum_sq[pixel];
+    float4 acc_odd = sum_odd[pixel];
     for (uint i = 0u; i < sample_count; ++i) {
-        const float3 l = trace_path(&scene, px, py, sample_start + i);
+        const uint sample = sample_start + i;
+        const float3 l = trace_path(&scene, px, py, sample);
         acc += (float4)(l, 0.0f);
         acc_sq += (float4)(l * l, 0.0f);
+        if (sample & 1u) {
+            acc_odd += (float4)(l, 0.0f);
+        }
     }
     sum[pixel] = acc;
     sum_sq[pixel] = acc_sq;
+    sum_odd[pixel] = acc_odd;
+}
+
+/* Error sums of one image row after `spp` samples, for the per-pass report (render/mod.rs).
+ * Reads: the film sums, and with has_reference the reference image (linear rgb). Writes: five
+ * sums over the row's pixels and channels: the estimated squared error of the mean (the
+ * even-odd difference squared, times n_even n_odd / n^2: its expectation is the variance of
+ * the mean), the same over (mean^2 + eps), and with a reference the squared error, the squared
+ * error over (ref^2 + eps), and the absolute error. */
+__kernel void error_rows(__global const float4* sum, __global const float4* sum_odd,
+                         __global const float4* reference, uint has_reference, uint width,
+                         uint spp, float eps, __global float* out) {
+    const uint row = get_global_id(0);
+    const float n = (float)spp;
+    const float n_odd = (float)(spp / 2u);
+    const float n_even = n - n_odd;
+    const float k = n_even * n_odd / (n * n);
+    float est = 0.0f, est_rel = 0.0f, se = 0.0f, se_rel = 0.0f, ae = 0.0f;
+    for (uint x = 0u; x < width; ++x) {
+        const uint i = row * width + x;
+        const float3 all = sum[i].xyz;
+        const float3 odd = sum_odd[i].xyz;
+        const float3 mean = all / n;
+        const float3 diff = (all - odd) / n_even - odd / n_odd;
+        const float3 var = diff * diff * k;
+        est += var.x + var.y + var.z;
+        const float3 rel = var / (mean * mean + eps);
+        est_rel += rel.x + rel.y + rel.z;
+        if (has_reference) {
+            const float3 r = reference[i].xyz;
+            const float3 e = mean - r;
+            const float3 e2 = e * e;
+            se += e2.x + e2.y + e2.z;
+            const float3 er = e2 / (r * r + eps);
+            se_rel += er.x + er.y + er.z;
+            const float3 a = fabs(e);
+            ae += a.x + a.y + a.z;
+        }
+    }
+    __global float* o = out + 5u * row;
+    o[0] = est;
+    o[1] = est_rel;
+    o[2] = se;
+    o[3] = se_rel;
+    o[4] = ae;
 }

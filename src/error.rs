@@ -81,6 +81,9 @@ pub enum Error {
         tried: Vec<PathBuf>,
     },
 
+    #[error("image {}: {message}", path.display())]
+    Image { path: PathBuf, message: String },
+
     #[error("mesh {}: {message}", path.display())]
     Mesh { path: PathBuf, message: String },
 

@@ -1,11 +1,12 @@
-//! The `clpt` command line: `render`, `devices`, `bench`.
+//! The `clpt` command line: `render`, `devices`, `bench`, `compare`.
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use clpt::device::program::{CacheUse, KernelSources};
 use clpt::device::{self};
 use clpt::render::bench::{BenchResult, bench_scene};
-use clpt::render::{ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter};
+use clpt::render::metrics::{self, LinearImage};
+use clpt::render::{ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter, report};
 use clpt::scene::{Scene, builtin};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -36,6 +37,19 @@ enum Command {
     Devices,
     /// Measure samples per second and paths per second on scenes.
     Bench(BenchArgs),
+    /// Print RMSE, relMSE and MAE of an image against a reference (PFM, EXR, PNG, PPM).
+    Compare(CompareArgs),
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    /// The image to measure.
+    image: PathBuf,
+    /// The reference it is measured against.
+    reference: PathBuf,
+    /// Write a false-colour picture of the per-pixel relative squared error (PNG).
+    #[arg(long, value_name = "FILE")]
+    error_image: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -128,6 +142,19 @@ struct RenderArgs {
     /// Stop after this many seconds (at the end of the pass running then).
     #[arg(long, value_name = "SECONDS")]
     time: Option<f64>,
+    /// Stop at the first pass whose estimated relMSE is at most E (from 8 spp on).
+    #[arg(long, value_name = "E")]
+    target_error: Option<f64>,
+    /// A converged image of the same scene and size (PFM or EXR): the report then gives the
+    /// true error too.
+    #[arg(long, value_name = "FILE")]
+    reference: Option<PathBuf>,
+    /// Write the per-pass report (time, spp, spp/s, error) as CSV or JSON.
+    #[arg(long, value_name = "FILE")]
+    report: Option<PathBuf>,
+    /// Plot error against time (log-log) as SVG or PNG.
+    #[arg(long, value_name = "FILE")]
+    plot: Option<PathBuf>,
     #[command(flatten)]
     sampling: SamplingArgs,
     #[command(flatten)]
@@ -221,7 +248,19 @@ fn default_output(scene: Option<&Path>) -> PathBuf {
 
 fn render(args: &RenderArgs) -> Result<()> {
     let scene = load_scene(args.scene.as_deref(), &args.sampling)?;
-    let options = options(&args.sampling, &args.program, args.spp, args.time)?;
+    let mut options = options(&args.sampling, &args.program, args.spp, args.time)?;
+    if let Some(e) = args.target_error {
+        if !(e.is_finite() && e > 0.0) {
+            bail!("--target-error must be a positive number, got {e}");
+        }
+        options.target_error = Some(e);
+        if args.spp.is_none() {
+            options.spp = None; // the target decides, or --time
+        }
+    }
+    if let Some(path) = &args.reference {
+        options.reference = Some(std::sync::Arc::new(LinearImage::read(path)?));
+    }
     let output = args
         .output
         .clone()
@@ -285,13 +324,38 @@ fn render(args: &RenderArgs) -> Result<()> {
     let (film, stats) = renderer.render(&mut |p: &Progress| {
         bar.set_position(p.spp_done as u64);
         let spp_per_second = p.spp_done as f64 / p.elapsed.as_secs_f64().max(1e-9);
+        let error = p.estimate.map_or(String::new(), |e| {
+            format!(", est. RMSE {:.2e}, relMSE {:.2e}", e.rmse, e.relmse)
+        });
         bar.set_message(format!(
-            "{spp_per_second:.1} spp/s, {:.2} Mpaths/s",
+            "{spp_per_second:.1} spp/s, {:.2} Mpaths/s{error}",
             p.paths_per_second / 1e6
         ));
     })?;
     bar.finish_and_clear();
     film.write(&output)?;
+    if let Some(path) = &args.report {
+        report::write_report(path, &stats.report)?;
+    }
+    if let Some(path) = &args.plot {
+        report::write_plot(
+            path,
+            &stats.report,
+            &format!("{} on {}", scene.source, device.description.name),
+        )?;
+    }
+    if let Some(last) = stats.report.last() {
+        let measured = last.measured.map_or(String::new(), |m| {
+            format!(
+                "; against the reference RMSE {:.3e}, relMSE {:.3e}, MAE {:.3e}",
+                m.rmse, m.relmse, m.mae
+            )
+        });
+        eprintln!(
+            "convergence: estimated RMSE {:.3e}, relMSE {:.3e}{measured}",
+            last.estimate.rmse, last.estimate.relmse
+        );
+    }
     eprintln!(
         "{}: {}x{}, {} spp in {:.2} s ({:.2} Mpaths/s)",
         output.display(),
@@ -303,6 +367,23 @@ fn render(args: &RenderArgs) -> Result<()> {
     );
     if args.verbose {
         eprintln!("{} passes, {} launches", stats.passes, stats.launches);
+    }
+    Ok(())
+}
+
+fn compare(args: &CompareArgs) -> Result<()> {
+    let image = LinearImage::read(&args.image)?;
+    let reference = LinearImage::read(&args.reference)?;
+    let m = image.metrics(&reference)?;
+    println!(
+        "RMSE {:.6e}\nrelMSE {:.6e} (eps {})\nMAE {:.6e}",
+        m.rmse,
+        m.relmse,
+        metrics::REL_EPSILON,
+        m.mae
+    );
+    if let Some(path) = &args.error_image {
+        image.write_error_image(&reference, path)?;
     }
     Ok(())
 }
@@ -339,5 +420,6 @@ fn main() -> Result<()> {
         Command::Render(args) => render(args),
         Command::Devices => devices(),
         Command::Bench(args) => bench(args),
+        Command::Compare(args) => compare(args),
     }
 }

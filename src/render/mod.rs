@@ -11,6 +11,8 @@
 pub mod bench;
 pub mod features;
 pub mod film;
+pub mod metrics;
+pub mod report;
 
 use crate::device::Device;
 use crate::device::layout::{self, RenderParams};
@@ -20,10 +22,14 @@ use crate::error::{Error, Result};
 use crate::scene::Scene;
 use features::Features;
 use film::Film;
+use metrics::{LinearImage, Metrics};
 use std::time::{Duration, Instant};
 
 /// Work-group edge: launches are padded to whole 8x8 groups.
 const GROUP: usize = 8;
+
+/// `target_error` is not trusted below this many samples per pixel.
+const MIN_SPP_FOR_TARGET: u32 = 8;
 
 /// How texture maps are sampled between texel centres.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -99,6 +105,11 @@ pub struct RenderOptions {
     pub all_features: bool,
     /// The program cache's folder ([`crate::device::cache`]); `None`: always build.
     pub cache_dir: Option<std::path::PathBuf>,
+    /// A converged image of the same scene and size: the per-pass report then measures the
+    /// true error too.
+    pub reference: Option<std::sync::Arc<LinearImage>>,
+    /// Stop at the first pass whose estimated relMSE is at most this.
+    pub target_error: Option<f64>,
 }
 
 impl Default for RenderOptions {
@@ -115,6 +126,8 @@ impl Default for RenderOptions {
             object_bvh: ObjectBvh::Auto,
             all_features: false,
             cache_dir: None,
+            reference: None,
+            target_error: None,
         }
     }
 }
@@ -127,6 +140,33 @@ pub struct Progress {
     pub elapsed: Duration,
     /// Paths (pixel samples) per second so far.
     pub paths_per_second: f64,
+    /// The estimated error of the image so far (from 2 samples per pixel on).
+    pub estimate: Option<ErrorEstimate>,
+}
+
+/// The error of the mean image estimated from the film alone: half the samples (even and odd
+/// sample indices) are two independent estimates of each pixel, and their difference squared
+/// (times n_even n_odd / n^2) estimates the variance of the mean without bias.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorEstimate {
+    /// Estimated root-mean-square error, over pixels and channels.
+    pub rmse: f64,
+    /// Estimated relMSE, with the image itself in place of the reference.
+    pub relmse: f64,
+}
+
+/// One row of the per-pass report.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PassReport {
+    pub pass: u32,
+    /// Rendering time since the start, in seconds.
+    pub seconds: f64,
+    pub spp: u32,
+    /// Samples per pixel per second, over the whole render so far.
+    pub spp_per_second: f64,
+    pub estimate: ErrorEstimate,
+    /// The error measured against the reference, when there is one.
+    pub measured: Option<Metrics>,
 }
 
 /// What a finished render measured.
@@ -136,6 +176,8 @@ pub struct RenderStats {
     pub launches: u32,
     pub passes: u32,
     pub paths_per_second: f64,
+    /// After every pass from 2 samples per pixel on.
+    pub report: Vec<PassReport>,
 }
 
 /// A scene loaded on a device, ready to render.
@@ -145,11 +187,113 @@ pub struct Renderer<'d> {
     pub program: BuiltProgram,
     pub packed: PackedScene,
     kernel: ocl::Kernel,
+    errors: ErrorKernel,
     // The kernel holds these buffers' handles; they live as long as it does.
     _scene: SceneBuffers,
     sum: ocl::Buffer<f32>,
     sum_sq: ocl::Buffer<f32>,
+    sum_odd: ocl::Buffer<f32>,
     options: RenderOptions,
+}
+
+/// The error figures of the film after a pass (kernels/pathtracer.cl, `error_rows`).
+struct ErrorKernel {
+    kernel: ocl::Kernel,
+    rows: ocl::Buffer<f32>,
+    has_reference: bool,
+    _reference: ocl::Buffer<f32>,
+}
+
+impl ErrorKernel {
+    fn new(
+        device: &Device,
+        program: &ocl::Program,
+        packed: &PackedScene,
+        sum: &ocl::Buffer<f32>,
+        sum_odd: &ocl::Buffer<f32>,
+        options: &RenderOptions,
+    ) -> Result<Self> {
+        let (width, height) = (packed.camera.width, packed.camera.height);
+        // The reference, bottom row first as the film.
+        let mut reference = vec![0.0f32; 4];
+        if let Some(r) = &options.reference {
+            if (r.width, r.height) != (width, height) {
+                return Err(Error::Invalid(format!(
+                    "the reference is {}x{}, the render {width}x{height}",
+                    r.width, r.height
+                )));
+            }
+            reference = (0..height)
+                .rev()
+                .flat_map(|row| {
+                    let start = (row * width) as usize;
+                    r.rgb[start..start + width as usize]
+                        .iter()
+                        .flat_map(|p| [p[0], p[1], p[2], 0.0])
+                })
+                .collect();
+        }
+        let fail = |e: ocl::Error| Error::opencl("preparing the error estimate", e);
+        let reference = ocl::Buffer::<f32>::builder()
+            .queue(device.queue.clone())
+            .len(reference.len())
+            .copy_host_slice(&reference)
+            .build()
+            .map_err(fail)?;
+        let rows = ocl::Buffer::<f32>::builder()
+            .queue(device.queue.clone())
+            .len(height as usize * 5)
+            .build()
+            .map_err(fail)?;
+        let kernel = ocl::Kernel::builder()
+            .program(program)
+            .name("error_rows")
+            .queue(device.queue.clone())
+            .global_work_size(height as usize)
+            .arg(sum)
+            .arg(sum_odd)
+            .arg(&reference)
+            .arg(options.reference.is_some() as u32)
+            .arg(width)
+            .arg(0u32)
+            .arg(metrics::REL_EPSILON)
+            .arg(&rows)
+            .build()
+            .map_err(fail)?;
+        Ok(ErrorKernel {
+            kernel,
+            rows,
+            has_reference: options.reference.is_some(),
+            _reference: reference,
+        })
+    }
+
+    /// The estimate (and with a reference the measured error) after `spp` samples.
+    fn measure(&self, spp: u32, pixels: f64) -> Result<(ErrorEstimate, Option<Metrics>)> {
+        let fail = |e: ocl::Error| Error::opencl("estimating the error", e);
+        self.kernel.set_arg(5, spp).map_err(fail)?;
+        // SAFETY: every buffer is alive and sized for the image's rows; one work-item a row.
+        unsafe { self.kernel.enq() }.map_err(fail)?;
+        let mut rows = vec![0.0f32; self.rows.len()];
+        self.rows.read(&mut rows).enq().map_err(fail)?;
+        let mut sums = [0.0f64; 5];
+        for row in rows.chunks_exact(5) {
+            for (s, v) in sums.iter_mut().zip(row) {
+                *s += *v as f64;
+            }
+        }
+        let n = pixels * 3.0;
+        let estimate = ErrorEstimate {
+            rmse: (sums[0] / n).sqrt(),
+            relmse: sums[1] / n,
+        };
+        let measured = self.has_reference.then(|| Metrics {
+            rmse: (sums[2] / n).sqrt(),
+            relmse: sums[3] / n,
+            mae: sums[4] / n,
+        });
+        Ok((estimate, measured))
+    }
 }
 
 impl<'d> Renderer<'d> {
@@ -159,9 +303,9 @@ impl<'d> Renderer<'d> {
         sources: &KernelSources,
         options: RenderOptions,
     ) -> Result<Self> {
-        if options.spp.is_none() && options.time_limit.is_none() {
+        if options.spp.is_none() && options.time_limit.is_none() && options.target_error.is_none() {
             return Err(Error::Invalid(
-                "a render needs a sample count or a time limit".into(),
+                "a render needs a sample count, a time limit or a target error".into(),
             ));
         }
         let packed = PackedScene::new(scene, options.max_texture_pixels)?;
@@ -196,6 +340,7 @@ impl<'d> Renderer<'d> {
         };
         let sum = film_buffer()?;
         let sum_sq = film_buffer()?;
+        let sum_odd = film_buffer()?;
         let mut builder = ocl::Kernel::builder();
         builder
             .program(&program.program)
@@ -208,21 +353,25 @@ impl<'d> Renderer<'d> {
         let kernel = builder
             .arg(&sum)
             .arg(&sum_sq)
+            .arg(&sum_odd)
             .arg(0u32)
             .arg(0u32)
             .arg(0u32)
             .arg(0u32)
             .build()
             .map_err(|e| Error::opencl("creating the render kernel", e))?;
+        let errors = ErrorKernel::new(device, &program.program, &packed, &sum, &sum_odd, &options)?;
         Ok(Renderer {
             device,
             features,
             program,
             packed,
             kernel,
+            errors,
             _scene: scene_buffers,
             sum,
             sum_sq,
+            sum_odd,
             options,
         })
     }
@@ -243,11 +392,11 @@ impl<'d> Renderer<'d> {
                 .set_arg(i, v)
                 .map_err(|e| Error::opencl("setting a kernel argument", e))
         };
-        // After the 18 scene buffers and the two film buffers.
-        set(20, sample_start)?;
-        set(21, count)?;
-        set(22, row_start)?;
-        set(23, rows)?;
+        // After the 18 scene buffers and the three film buffers.
+        set(21, sample_start)?;
+        set(22, count)?;
+        set(23, row_start)?;
+        set(24, rows)?;
         // SAFETY: the kernel's buffers are alive (owned by self) and sized for the whole
         // image; the kernel bounds-checks the padded work-items.
         unsafe {
@@ -269,7 +418,7 @@ impl<'d> Renderer<'d> {
     /// awake, so that a timed render measures rendering alone.
     pub fn warm_up(&mut self) -> Result<()> {
         self.launch(0, self.height().min(GROUP as u32 * 2), 0, 1)?;
-        for film in [&self.sum, &self.sum_sq] {
+        for film in [&self.sum, &self.sum_sq, &self.sum_odd] {
             film.cmd()
                 .fill(0.0f32, None)
                 .enq()
@@ -292,6 +441,7 @@ impl<'d> Renderer<'d> {
         let total = self.options.spp;
         let start = Instant::now();
         let mut spp_done = 0u32;
+        let mut report = Vec::new();
         let mut launches = 0u32;
         let mut passes = 0u32;
         // The first launch is a small probe (a band of rows, one sample) to measure the rate.
@@ -325,13 +475,35 @@ impl<'d> Renderer<'d> {
             if spp_done > u32::MAX - (1 << 16) {
                 break; // sample indices are 32-bit
             }
+            let mut estimate = None;
+            if spp_done >= 2 {
+                let (e, measured) = self.errors.measure(spp_done, pixels)?;
+                let seconds = start.elapsed().as_secs_f64();
+                report.push(PassReport {
+                    pass: passes,
+                    seconds,
+                    spp: spp_done,
+                    spp_per_second: spp_done as f64 / seconds.max(1e-9),
+                    estimate: e,
+                    measured,
+                });
+                estimate = Some(e);
+            }
             let elapsed = start.elapsed();
             on_progress(&Progress {
                 spp_done,
                 spp_total: total,
                 elapsed,
                 paths_per_second: pixels * spp_done as f64 / elapsed.as_secs_f64().max(1e-9),
+                estimate,
             });
+            // The half-buffer estimate needs a few samples per pixel to mean anything.
+            if let (Some(target), Some(e)) = (self.options.target_error, estimate)
+                && spp_done >= MIN_SPP_FOR_TARGET
+                && e.relmse <= target
+            {
+                break;
+            }
             // Plan the next pass from the slowest launch of this one.
             let budget = pass_rate * target; // pixel samples per launch
             if budget >= pixels {
@@ -351,6 +523,7 @@ impl<'d> Renderer<'d> {
                 launches,
                 passes,
                 paths_per_second: pixels * spp_done as f64 / elapsed.as_secs_f64().max(1e-9),
+                report,
             },
         ))
     }
