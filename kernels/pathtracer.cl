@@ -3,7 +3,7 @@
  * Reads: the whole scene (objects.h's Scene: parameters, materials, objects, textures,
  * meshes and the BVH). Writes: adds, for every pixel of rows [row_start, row_start + row_count),
  * the `sample_count` path samples of indices sample_start... and their squares to `sum` and
- * `sum_sq`, and the odd-numbered ones to `sum_odd` (float4 per pixel, .w unused; row 0 is the
+ * `sum_sq`, and those of odd-numbered groups of four to `sum_odd` (float4 per pixel, .w unused; row 0 is the
  * bottom of the image). Samples are added one at a time onto the running sums, so the image is
  * bit for bit the same however the host splits the work into launches. error_rows reduces the
  * film to the error figures of the per-pass report.
@@ -109,8 +109,11 @@ inline float3 trace_path(const Scene* sc, uint px, uint py, uint sample) {
 
 /* Accumulates sample_count samples from sample_start into every pixel of rows
  * [row_start, row_start + row_count): the sums of radiance and of its squares, and apart the sum
- * of the odd-numbered samples, so that the even and odd halves give two independent estimates
- * of each pixel whose difference measures the error (error_rows). */
+ * of the samples of odd-numbered groups of four, so that the even and odd halves give two
+ * independent estimates of each pixel whose difference measures the error (error_rows). Groups
+ * of four, not single samples: sample i goes to sub-pixel i mod 4, and halves split by sample
+ * parity would see different sub-pixels, their difference the image's gradient across the
+ * pixel rather than noise. */
 __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum,
                           __global float4* sum_sq, __global float4* sum_odd, uint sample_start,
                           uint sample_count, uint row_start, uint row_count) {
@@ -129,7 +132,7 @@ __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum,
         const float3 l = trace_path(&scene, px, py, sample);
         acc += (float4)(l, 0.0f);
         acc_sq += (float4)(l * l, 0.0f);
-        if (sample & 1u) {
+        if ((sample >> 2) & 1u) {
             acc_odd += (float4)(l, 0.0f);
         }
     }
@@ -141,15 +144,16 @@ __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum,
 /* Error sums of one image row after `spp` samples, for the per-pass report (render/mod.rs).
  * Reads: the film sums, and with has_reference the reference image (linear rgb). Writes: five
  * sums over the row's pixels and channels: the estimated squared error of the mean (the
- * even-odd difference squared, times n_even n_odd / n^2: its expectation is the variance of
- * the mean), the same over (mean^2 + eps), and with a reference the squared error, the squared
+ * difference of the even and odd halves squared, times n_even n_odd / n^2: its expectation is
+ * the variance of the mean; spp >= 5, so that both halves have samples), the same over (mean^2 + eps), and with a reference the squared error, the squared
  * error over (ref^2 + eps), and the absolute error. */
 __kernel void error_rows(__global const float4* sum, __global const float4* sum_odd,
                          __global const float4* reference, uint has_reference, uint width,
                          uint spp, float eps, __global float* out) {
     const uint row = get_global_id(0);
     const float n = (float)spp;
-    const float n_odd = (float)(spp / 2u);
+    const uint rest = spp % 8u;
+    const float n_odd = (float)((spp / 8u) * 4u + (rest > 4u ? rest - 4u : 0u));
     const float n_even = n - n_odd;
     const float k = n_even * n_odd / (n * n);
     float est = 0.0f, est_rel = 0.0f, se = 0.0f, se_rel = 0.0f, ae = 0.0f;

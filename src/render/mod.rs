@@ -28,8 +28,12 @@ use std::time::{Duration, Instant};
 /// Work-group edge: launches are padded to whole 8x8 groups.
 const GROUP: usize = 8;
 
+/// The error is estimated from this many samples per pixel on: two groups of four, one for
+/// each half (kernels/pathtracer.cl, `render_pass`).
+const MIN_SPP_FOR_ESTIMATE: u32 = 8;
+
 /// `target_error` is not trusted below this many samples per pixel.
-const MIN_SPP_FOR_TARGET: u32 = 8;
+const MIN_SPP_FOR_TARGET: u32 = 16;
 
 /// How texture maps are sampled between texel centres.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -140,13 +144,14 @@ pub struct Progress {
     pub elapsed: Duration,
     /// Paths (pixel samples) per second so far.
     pub paths_per_second: f64,
-    /// The estimated error of the image so far (from 2 samples per pixel on).
+    /// The estimated error of the image so far (from 8 samples per pixel on).
     pub estimate: Option<ErrorEstimate>,
 }
 
-/// The error of the mean image estimated from the film alone: half the samples (even and odd
-/// sample indices) are two independent estimates of each pixel, and their difference squared
-/// (times n_even n_odd / n^2) estimates the variance of the mean without bias.
+/// The error of the mean image estimated from the film alone: the samples of even and of odd
+/// groups of four (each group covers the pixel's four sub-pixels) are two independent estimates
+/// of each pixel, and their difference squared (times n_even n_odd / n^2) estimates the
+/// variance of the mean without bias.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ErrorEstimate {
     /// Estimated root-mean-square error, over pixels and channels.
@@ -176,7 +181,7 @@ pub struct RenderStats {
     pub launches: u32,
     pub passes: u32,
     pub paths_per_second: f64,
-    /// After every pass from 2 samples per pixel on.
+    /// After every pass from 8 samples per pixel on.
     pub report: Vec<PassReport>,
 }
 
@@ -476,7 +481,7 @@ impl<'d> Renderer<'d> {
                 break; // sample indices are 32-bit
             }
             let mut estimate = None;
-            if spp_done >= 2 {
+            if spp_done >= MIN_SPP_FOR_ESTIMATE {
                 let (e, measured) = self.errors.measure(spp_done, pixels)?;
                 let seconds = start.elapsed().as_secs_f64();
                 report.push(PassReport {

@@ -78,7 +78,7 @@ pub fn write_plot(path: &Path, rows: &[PassReport], title: &str) -> Result<()> {
     let rows: Vec<&PassReport> = rows.iter().filter(|r| r.seconds > 0.0).collect();
     if rows.len() < 2 {
         return Err(Error::Invalid(
-            "a plot needs at least two passes with 2 samples per pixel or more".into(),
+            "a plot needs at least two passes of 8 samples per pixel or more".into(),
         ));
     }
     let estimate: Vec<(f64, f64)> = rows.iter().map(|r| (r.seconds, r.estimate.rmse)).collect();
