@@ -234,4 +234,29 @@ mod tests {
         };
         assert!(small.metrics(&image).is_err());
     }
+
+    #[test]
+    fn malformed_pfm_files_are_errors_not_panics() {
+        let good: Vec<u8> = b"PF\n2 1\n-1.0\n"
+            .iter()
+            .copied()
+            .chain([0u8; 24])
+            .collect();
+        assert!(read_pfm(&good).is_ok());
+        for len in 0..good.len() {
+            assert!(
+                read_pfm(&good[..len]).is_err(),
+                "{len} bytes read as an image"
+            );
+        }
+        for header in [
+            "Pf\n2 1\n-1\n",
+            "PF\n-2 1\n-1\n",
+            "PF\n2 x\n-1\n",
+            "PF\n2 1\nscale\n",
+        ] {
+            let bytes: Vec<u8> = header.bytes().chain([0u8; 24]).collect();
+            assert!(read_pfm(&bytes).is_err(), "{header:?}");
+        }
+    }
 }
