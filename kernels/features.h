@@ -16,6 +16,7 @@
  *   CLPT_TRANSFORMS   objects inside Transform (transform.h's matrices applied per ray)
  *   CLPT_TEXTURES     texture maps of any kind (texture.h, texture coordinates, bump frames)
  *   CLPT_THIN_LENS    depth of field (the camera's lens sampling); 0: a pinhole
+ *   CLPT_NEE          next-event estimation with MIS (nee.h); 0: pure path tracing
  */
 #ifndef CLPT_FEATURES_H
 #define CLPT_FEATURES_H
@@ -46,6 +47,9 @@
 #endif
 #ifndef CLPT_THIN_LENS
 #define CLPT_THIN_LENS 1
+#endif
+#ifndef CLPT_NEE
+#define CLPT_NEE 1
 #endif
 
 #endif

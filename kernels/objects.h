@@ -54,6 +54,7 @@ typedef struct Scene {
     __global const BvhNode* bvh;
     __global const RevSurface* revsurfaces;
     __global const float2* rev_points;
+    __global const ObjectRef* lights;
 } Scene;
 
 #define SCENE_KERNEL_ARGS                                                                     \
@@ -65,11 +66,12 @@ typedef struct Scene {
         __global const uint *kd_indices, __global const uint *triangles,                     \
         __global const float *vertices, __global const float *normals,                       \
         __global const ObjectRef *objects, __global const BvhNode *bvh,                      \
-        __global const RevSurface *revsurfaces, __global const float2 *rev_points
+        __global const RevSurface *revsurfaces, __global const float2 *rev_points,            \
+        __global const ObjectRef *lights
 #define SCENE_FROM_KERNEL_ARGS                                                                \
     {params,   materials,  spheres,   planes,   maps,     texels,  transforms, meshes,        \
      mesh_instances, kd_nodes, kd_indices, triangles, vertices, normals, objects, bvh,         \
-     revsurfaces, rev_points}
+     revsurfaces, rev_points, lights}
 
 typedef struct Hit {
     float t;

@@ -24,6 +24,9 @@
 #include "texture.h"
 #endif
 #include "material.h"
+#if CLPT_NEE
+#include "nee.h"
+#endif
 
 #define RR_MAX_SURVIVAL 0.95f
 
@@ -76,6 +79,11 @@ inline float3 trace_path(const Scene* sc, uint px, uint py, uint sample) {
 
     float3 radiance = (float3)(0.0f);
     float3 throughput = (float3)(1.0f);
+#if CLPT_NEE
+    bool sampled_light = false; /* the previous vertex sampled a light too (nee.h) */
+    float3 prev_p = (float3)(0.0f);
+    float prev_pdf = 0.0f;
+#endif
     for (uint depth = 0u; depth < params->max_depth; ++depth) {
         const Hit hit = scene_intersect(sc, o, d);
         if (hit.kind == HIT_NONE) {
@@ -83,11 +91,35 @@ inline float3 trace_path(const Scene* sc, uint px, uint py, uint sample) {
         }
         const Surface s = scene_surface(sc, hit, o, d);
         const SurfaceMaterial sm = material_at(sc, hit, s);
+#if CLPT_NEE
+        const float w_emission =
+            sampled_light ? emission_weight(sc, hit, s, prev_p, prev_pdf, d) : 1.0f;
+        radiance += throughput * sm.emission * w_emission;
+#else
         radiance += throughput * sm.emission;
+#endif
 
         const float4 u = rng_next4(&rng);
+#if CLPT_NEE
+        /* Light sampling at diffuse vertices whose shading normal is the geometric one (a bent
+         * normal makes the BSDF's density other than cos / pi: those vertices keep BSDF
+         * sampling alone, and the emission they find its full weight). */
+        const float3 facing = dot(d, s.n) <= 0.0f ? s.n : -s.n;
+        sampled_light = sm.type == MATERIAL_DIFFUSE && params->num_lights > 0u &&
+                        all(isequal(sm.shading_normal, s.n));
+        if (sampled_light) {
+            radiance +=
+                throughput * sample_light(sc, s, facing, facing, sm.color, rng_next4(&rng));
+        }
+#endif
         float3 wi;
         throughput *= material_sample(sm.type, sm.color, -d, s.n, sm.shading_normal, u, &wi);
+#if CLPT_NEE
+        if (sampled_light) {
+            prev_p = s.p;
+            prev_pdf = fmax(0.0f, dot(wi, facing)) * M_1_PI_F;
+        }
+#endif
 
         /* Russian roulette on the throughput (pbrt-v4 section 14.1.5): unbiased, and it ends
          * zero-throughput paths (black surfaces, emitters of colour 0) at once. Survival is

@@ -187,7 +187,8 @@ typedef struct RenderParams {
     uint max_depth;        /* safety cap on path length (bounces) */
     uint rr_depth;         /* Russian roulette starts at this depth */
     uint texture_filter;   /* FILTER_* */
+    uint num_lights;       /* ObjectRef entries of the light list (next-event estimation) */
 } RenderParams;
-CLPT_ASSERT_SIZE(RenderParams, 136);
+CLPT_ASSERT_SIZE(RenderParams, 140);
 
 #endif

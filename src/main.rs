@@ -100,6 +100,9 @@ struct SamplingArgs {
     /// Object BVH: auto (from 32 objects on), on, or off (test every object in turn).
     #[arg(long, default_value = "auto")]
     object_bvh: ObjectBvh,
+    /// No light sampling: pure path tracing, as the original.
+    #[arg(long)]
+    no_nee: bool,
 }
 
 #[derive(Args)]
@@ -232,6 +235,7 @@ fn options(
         texture_filter: sampling.texture_filter,
         max_texture_pixels: sampling.max_texture_pixels,
         object_bvh: sampling.object_bvh,
+        nee: !sampling.no_nee,
         all_features: program.all_features,
         cache_dir: program.cache_dir(),
         ..RenderOptions::default()

@@ -32,7 +32,7 @@ fn small(mut scene: Scene) -> Scene {
 }
 
 fn scenes() -> Vec<(&'static str, Scene)> {
-    let room = |light: &str| {
+    let room = |light: &str, height: f64, radius: f64| {
         format!(
             "PerspectiveCamera {{ center 0 0 9 direction 0 0 -1 angle 40 width 24 height 18 }}\n\
              Materials {{ numMaterials 4 Material {{ emission {light} }} \
@@ -46,14 +46,18 @@ fn scenes() -> Vec<(&'static str, Scene)> {
              Plane {{ normal 0 0 1 offset -4 range 100 }} \
              Sphere {{ center -1.5 -2 -1 radius 1 }} \
              Sphere {{ center 1.5 -2 0 radius 1 }} \
-             MaterialIndex 0 Sphere {{ center 0 5.2 -1 radius 2.5 }} }}\n"
+             MaterialIndex 0 Sphere {{ center 0 {height} -1 radius {radius} }} }}\n"
         )
     };
     let parse =
         |text: String, name: &str| parse_scene(&text, name).unwrap_or_else(|e| panic!("{e}"));
     vec![
-        ("room", parse(room("1.5 1.5 1.5"), "room")),
+        ("room", parse(room("1.5 1.5 1.5", 5.2, 2.5), "room")),
         ("smallpt", small(clpt::scene::builtin::scene().unwrap())),
+        (
+            "small light",
+            parse(room("400 400 400", 2.8, 0.1), "small light"),
+        ),
     ]
 }
 

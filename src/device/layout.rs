@@ -276,8 +276,9 @@ pub struct RenderParams {
     pub max_depth: u32,
     pub rr_depth: u32,
     pub texture_filter: u32,
+    pub num_lights: u32,
 }
-const _: () = assert!(size_of::<RenderParams>() == 136);
+const _: () = assert!(size_of::<RenderParams>() == 140);
 
 /// One struct's layout as Rust sees it: its C name, size, and (field name, offset) pairs.
 pub struct StructLayout {
@@ -344,7 +345,7 @@ pub const LAYOUT: &[StructLayout] = &[
         first_unbounded => "first_unbounded",
         num_bvh_nodes => "num_bvh_nodes",
         seed_lo => "seed_lo", seed_hi => "seed_hi", max_depth => "max_depth",
-        rr_depth => "rr_depth", texture_filter => "texture_filter",
+        rr_depth => "rr_depth", texture_filter => "texture_filter", num_lights => "num_lights",
     }),
 ];
 

@@ -31,6 +31,7 @@ const EMBEDDED: &[(&str, &str)] = &[
     ("revsurface.h", include_str!("../../kernels/revsurface.h")),
     ("objects.h", include_str!("../../kernels/objects.h")),
     ("material.h", include_str!("../../kernels/material.h")),
+    ("nee.h", include_str!("../../kernels/nee.h")),
     ("pathtracer.cl", include_str!("../../kernels/pathtracer.cl")),
     ("probes.cl", include_str!("../../kernels/probes.cl")),
 ];

@@ -56,6 +56,8 @@ pub struct PackedScene {
     pub first_unbounded: u32,
     pub bvh: Vec<BvhNode>,
     pub revsurfaces: Vec<RevSurface>,
+    /// The emitters next-event estimation samples ([`PackedScene::collect_lights`]).
+    pub lights: Vec<ObjectRef>,
     /// Control points (x, y) of every surface of revolution's Bezier segments.
     pub rev_points: Vec<[f32; 2]>,
     /// World boxes of `objects[..first_unbounded]`, as the BVH was built on them.
@@ -217,6 +219,7 @@ impl PackedScene {
             }
         }
         packed.build_bvh();
+        packed.collect_lights();
         Ok(packed)
     }
 
@@ -239,6 +242,7 @@ impl PackedScene {
             packed.push_plane(p, None);
         }
         packed.build_bvh();
+        packed.collect_lights();
         packed
     }
 
@@ -394,7 +398,40 @@ impl PackedScene {
             max_depth,
             rr_depth,
             texture_filter,
+            num_lights: self.lights.len() as u32,
         }
+    }
+
+    /// The light list: spheres, and planes whose normal is along an axis (their visible part
+    /// is then a square), that emit a constant radiance and are not transformed. Other
+    /// emitters (emission maps, transforms, tilted planes, meshes, revolved surfaces) are
+    /// found by BSDF sampling alone. The device applies the same rule to the object a path
+    /// hits (nee.h, `sampled_light`): keep the two in step.
+    fn collect_lights(&mut self) {
+        let emits = |m: u32| {
+            self.materials.get(m as usize).is_some_and(|m| {
+                m.emission.iter().any(|&e| e > 0.0) && m.emission_map == layout::MAP_NONE
+            })
+        };
+        let mut lights = Vec::new();
+        for (i, s) in self.spheres.iter().enumerate() {
+            if emits(s.material) && s.transform == layout::TRANSFORM_NONE {
+                lights.push(ObjectRef {
+                    kind: layout::OBJECT_SPHERE,
+                    index: i as u32,
+                });
+            }
+        }
+        for (i, p) in self.planes.iter().enumerate() {
+            let axis_aligned = p.normal.iter().filter(|&&c| c != 0.0).count() == 1;
+            if emits(p.material) && p.transform == layout::TRANSFORM_NONE && axis_aligned {
+                lights.push(ObjectRef {
+                    kind: layout::OBJECT_PLANE,
+                    index: i as u32,
+                });
+            }
+        }
+        self.lights = lights;
     }
 }
 
@@ -440,6 +477,7 @@ pub struct SceneBuffers {
     pub bvh: ocl::Buffer<u8>,
     pub revsurfaces: ocl::Buffer<u8>,
     pub rev_points: ocl::Buffer<u8>,
+    pub lights: ocl::Buffer<u8>,
 }
 
 impl SceneBuffers {
@@ -463,11 +501,12 @@ impl SceneBuffers {
             bvh: upload_slice(device, &packed.bvh)?,
             revsurfaces: upload_slice(device, &packed.revsurfaces)?,
             rev_points: upload_slice(device, &packed.rev_points)?,
+            lights: upload_slice(device, &packed.lights)?,
         })
     }
 
     /// Every buffer in kernel-argument order (the `Scene` struct of objects.h).
-    pub fn in_order(&self) -> [&ocl::Buffer<u8>; 18] {
+    pub fn in_order(&self) -> [&ocl::Buffer<u8>; 19] {
         [
             &self.params,
             &self.materials,
@@ -487,6 +526,7 @@ impl SceneBuffers {
             &self.bvh,
             &self.revsurfaces,
             &self.rev_points,
+            &self.lights,
         ]
     }
 }

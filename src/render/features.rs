@@ -36,8 +36,11 @@ pub struct Features {
     pub thin_lens: bool,
     /// Refractive materials (or type maps, which may pick glass).
     pub glass: bool,
-    /// Objects whose material emits: what light sampling would sample.
+    /// Objects whose material emits.
     pub emitters: usize,
+    /// Next-event estimation: set by the renderer, which knows the light list it samples
+    /// (upload.rs `collect_lights`) and whether `--no-nee` was given; `of` leaves it off.
+    pub nee: bool,
 }
 
 impl Features {
@@ -91,6 +94,7 @@ impl Features {
                     })
                 })
                 .count(),
+            nee: false,
         }
     }
 
@@ -131,6 +135,7 @@ impl Features {
             ("CLPT_TRANSFORMS", flag(self.transforms)),
             ("CLPT_TEXTURES", flag(self.textures())),
             ("CLPT_THIN_LENS", flag(self.thin_lens)),
+            ("CLPT_NEE", flag(self.nee)),
         ]
     }
 }
@@ -156,6 +161,7 @@ impl fmt::Display for Features {
             (self.bump_maps, "bump-maps"),
             (self.thin_lens, "thin-lens"),
             (self.glass, "glass"),
+            (self.nee, "nee"),
         ];
         let on: Vec<&str> = names
             .iter()

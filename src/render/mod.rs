@@ -114,6 +114,8 @@ pub struct RenderOptions {
     pub reference: Option<std::sync::Arc<LinearImage>>,
     /// Stop at the first pass whose estimated relMSE is at most this.
     pub target_error: Option<f64>,
+    /// Next-event estimation with MIS (kernels/nee.h); off: pure path tracing, the original's.
+    pub nee: bool,
 }
 
 impl Default for RenderOptions {
@@ -132,6 +134,7 @@ impl Default for RenderOptions {
             cache_dir: None,
             reference: None,
             target_error: None,
+            nee: true,
         }
     }
 }
@@ -321,11 +324,12 @@ impl<'d> Renderer<'d> {
         let params: RenderParams =
             packed.params(options.seed, options.max_depth, options.rr_depth, filter);
         // Leave out what the scene does not need (features.rs, kernels/features.h).
-        let features = if options.all_features {
+        let mut features = if options.all_features {
             Features::all(scene, options.object_bvh)
         } else {
             Features::of(scene, options.object_bvh)
         };
+        features.nee = options.nee && (options.all_features || !packed.lights.is_empty());
         let program = program::build_entry(
             device,
             sources,
@@ -397,11 +401,11 @@ impl<'d> Renderer<'d> {
                 .set_arg(i, v)
                 .map_err(|e| Error::opencl("setting a kernel argument", e))
         };
-        // After the 18 scene buffers and the three film buffers.
-        set(21, sample_start)?;
-        set(22, count)?;
-        set(23, row_start)?;
-        set(24, rows)?;
+        // After the 19 scene buffers and the three film buffers.
+        set(22, sample_start)?;
+        set(23, count)?;
+        set(24, row_start)?;
+        set(25, rows)?;
         // SAFETY: the kernel's buffers are alive (owned by self) and sized for the whole
         // image; the kernel bounds-checks the padded work-items.
         unsafe {
