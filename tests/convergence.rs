@@ -16,9 +16,9 @@
 
 mod common;
 
-use clpt::device::program::KernelSources;
+use clpt::render::film::Film;
 use clpt::render::metrics::LinearImage;
-use clpt::render::{PassReport, RenderOptions, Renderer};
+use clpt::render::{PassReport, RenderOptions};
 use clpt::scene::Scene;
 use clpt::scene::parse::parse_scene;
 use std::sync::Arc;
@@ -69,18 +69,15 @@ fn render(
     seed: u64,
     reference: Option<Arc<LinearImage>>,
 ) -> (PassReport, LinearImage) {
-    let device = common::device();
-    let options = RenderOptions {
-        spp: Some(spp),
-        seed,
-        reference,
-        ..RenderOptions::default()
-    };
-    let mut renderer = Renderer::new(&device, scene, &KernelSources::Embedded, options)
-        .unwrap_or_else(|e| panic!("{e}"));
-    let (film, stats) = renderer
-        .render(&mut |_| {})
-        .unwrap_or_else(|e| panic!("{e}"));
+    let (film, stats) = common::render(
+        scene,
+        RenderOptions {
+            spp: Some(spp),
+            seed,
+            reference,
+            ..RenderOptions::default()
+        },
+    );
     let image = LinearImage {
         width: film.width,
         height: film.height,
@@ -133,7 +130,7 @@ fn the_estimate_tracks_the_true_error_and_mse_falls_as_one_over_time() {
 
 /// Mean radiance of the pixels of `film` in the quadrant `q` (0..4), per channel, and the
 /// variance of that mean from the pixels' own sample variances.
-fn quadrant_mean(film: &clpt::render::film::Film, q: u32) -> ([f64; 3], [f64; 3]) {
+fn quadrant_mean(film: &Film, q: u32) -> ([f64; 3], [f64; 3]) {
     let (w, h) = (film.width / 2, film.height / 2);
     let (x0, y0) = ((q % 2) * w, (q / 2) * h);
     let (mut mean, mut var) = ([0.0; 3], [0.0; 3]);
@@ -152,7 +149,6 @@ fn quadrant_mean(film: &clpt::render::film::Film, q: u32) -> ([f64; 3], [f64; 3]
 
 #[test]
 fn light_sampling_and_pure_path_tracing_agree() {
-    let device = common::device();
     let film = |scene: &Scene, nee: bool, spp: u32, seed: u64| {
         let options = RenderOptions {
             spp: Some(spp),
@@ -160,12 +156,7 @@ fn light_sampling_and_pure_path_tracing_agree() {
             nee,
             ..RenderOptions::default()
         };
-        let mut renderer = Renderer::new(&device, scene, &KernelSources::Embedded, options)
-            .unwrap_or_else(|e| panic!("{e}"));
-        renderer
-            .render(&mut |_| {})
-            .unwrap_or_else(|e| panic!("{e}"))
-            .0
+        common::render(scene, options).0
     };
     for (name, scene) in scenes() {
         let with = film(&scene, true, 2048, 7);

@@ -6,9 +6,8 @@
 
 mod common;
 
-use clpt::device::program::KernelSources;
+use clpt::render::RenderOptions;
 use clpt::render::film::Film;
-use clpt::render::{RenderOptions, Renderer};
 use clpt::scene::Scene;
 use clpt::scene::parse::parse_scene;
 use glam::DVec3;
@@ -20,13 +19,7 @@ use std::time::Duration;
 const Z_LIMIT: f64 = 5.0;
 
 fn render(scene: &Scene, options: RenderOptions) -> Film {
-    let device = common::device();
-    let mut renderer = Renderer::new(&device, scene, &KernelSources::Embedded, options)
-        .unwrap_or_else(|e| panic!("{e}"));
-    renderer
-        .render(&mut |_| {})
-        .unwrap_or_else(|e| panic!("{e}"))
-        .0
+    common::render(scene, options).0
 }
 
 fn options(spp: u32, seed: u64) -> RenderOptions {

@@ -181,3 +181,17 @@ pub const GOBLET: [[f64; 2]; 26] = [
     [0.000000, -2.458801],
     [0.000000, -2.458802],
 ];
+
+/// A whole render of `scene` on the test device: the film and what the render measured.
+pub fn render(
+    scene: &clpt::scene::Scene,
+    options: clpt::render::RenderOptions,
+) -> (clpt::render::film::Film, clpt::render::RenderStats) {
+    let device = device();
+    let mut renderer =
+        clpt::render::Renderer::new(&device, scene, &KernelSources::Embedded, options)
+            .unwrap_or_else(|e| panic!("{e}"));
+    renderer
+        .render(&mut |_| {})
+        .unwrap_or_else(|e| panic!("{e}"))
+}
