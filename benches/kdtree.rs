@@ -3,6 +3,9 @@
 //! beside the original's median tree. The build runs on the host CPU, single-threaded.
 //! BENCHMARKS.md records the figures with the machine.
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 use clpt::accel::kdtree::{KdParams, KdTree};
 use clpt::scene::mesh::TriangleMesh;
 use std::path::Path;
@@ -14,13 +17,7 @@ fn main() -> Result<(), clpt::Error> {
         "| mesh | triangles | SAH build s | ns per n log2 n | nodes | max depth | bytes/triangle (tree) | bytes/triangle (all) | SAH cost | median-tree SAH cost |\n\
          |---|---|---|---|---|---|---|---|---|---|"
     );
-    for name in [
-        "dragon_11k",
-        "dragon_48k",
-        "dragon_100k",
-        "dragon_202k",
-        "dragon_871k",
-    ] {
+    for name in common::DRAGONS {
         let path = dir.join(format!("{name}.obj"));
         if !path.is_file() {
             eprintln!("SKIPPED {name}: {} not found", path.display());

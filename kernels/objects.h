@@ -131,18 +131,25 @@ inline void to_object_space(const Scene* sc, uint transform, float3* o, float3* 
 #endif
 }
 
+/* Keeps an object's hit at object-space t, found on a ray whose world unit direction has length
+ * `scale` there, when it is nearer than t_max (the nearest hit so far, in that space). */
+inline bool keep_hit(Hit* hit, float t, float t_max, float scale, uint kind, uint index) {
+    if (!(t < t_max)) {
+        return false;
+    }
+    hit->t = t / scale;
+    hit->kind = kind;
+    hit->index = index;
+    return true;
+}
+
 #if CLPT_SPHERES
 inline void sphere_object_intersect(const Scene* sc, uint index, float3 o, float3 d, Hit* hit) {
     __global const Sphere* s = &sc->spheres[index];
     float scale;
     to_object_space(sc, s->transform, &o, &d, &scale);
     const float t_max = hit->t * scale;
-    const float t = sphere_intersect(s, o, d, t_max);
-    if (t < t_max) {
-        hit->t = t / scale;
-        hit->kind = HIT_SPHERE;
-        hit->index = index;
-    }
+    keep_hit(hit, sphere_intersect(s, o, d, t_max), t_max, scale, HIT_SPHERE, index);
 }
 
 #endif
@@ -153,12 +160,7 @@ inline void plane_object_intersect(const Scene* sc, uint index, float3 o, float3
     float scale;
     to_object_space(sc, p->transform, &o, &d, &scale);
     const float t_max = hit->t * scale;
-    const float t = plane_intersect(p, o, d, t_max);
-    if (t < t_max) {
-        hit->t = t / scale;
-        hit->kind = HIT_PLANE;
-        hit->index = index;
-    }
+    keep_hit(hit, plane_intersect(p, o, d, t_max), t_max, scale, HIT_PLANE, index);
 }
 #endif
 
@@ -172,10 +174,7 @@ inline void rev_object_intersect(const Scene* sc, uint index, float3 o, float3 d
     RevWork work = {0u, 0u};
     float u = 0.0f;
     const float t = revsurface_intersect(r, sc->rev_points, o, d, t_max, &seg, &u, &work);
-    if (t < t_max) {
-        hit->t = t / scale;
-        hit->kind = HIT_REVSURFACE;
-        hit->index = index;
+    if (keep_hit(hit, t, t_max, scale, HIT_REVSURFACE, index)) {
         hit->prim = seg;
         hit->b1 = u;
     }

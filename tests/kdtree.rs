@@ -728,13 +728,7 @@ fn dragon_build_times_and_sizes() {
     let Some(seed) = common::seed_dir("dragon_build_times_and_sizes") else {
         return;
     };
-    for name in [
-        "dragon_11k",
-        "dragon_48k",
-        "dragon_100k",
-        "dragon_202k",
-        "dragon_871k",
-    ] {
+    for name in common::DRAGONS {
         let path = seed.join(format!("mesh/{name}.obj"));
         if !path.is_file() {
             eprintln!("SKIPPED {name}: no {}", path.display());

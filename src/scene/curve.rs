@@ -318,17 +318,14 @@ fn bernstein_eval(c: &[f64], u: f64) -> (f64, f64) {
     (b[0] + (b[1] - b[0]) * u, n as f64 * (b[1] - b[0]))
 }
 
-/// Value of a polynomial in Bernstein form by de Casteljau.
+/// Value of a polynomial in Bernstein form by de Casteljau (the same arithmetic as
+/// [`bernstein_eval`]'s value, which needs degree ≥ 1).
 fn bernstein_value(c: &[f64], u: f64) -> f64 {
-    let n = c.len() - 1;
-    let mut b = [0.0; MAX_G];
-    b[..=n].copy_from_slice(c);
-    for level in (1..=n).rev() {
-        for i in 0..level {
-            b[i] += (b[i + 1] - b[i]) * u;
-        }
+    if c.len() == 1 {
+        c[0]
+    } else {
+        bernstein_eval(c, u).0
     }
-    b[0]
 }
 
 /// Bernstein coefficients of the two halves [0, 1/2] and [1/2, 1].

@@ -195,3 +195,12 @@ pub fn render(
         .render(&mut |_| {})
         .unwrap_or_else(|e| panic!("{e}"))
 }
+
+/// The original's dragon meshes in `mesh/` of the seed data, smallest first.
+pub const DRAGONS: [&str; 5] = [
+    "dragon_11k",
+    "dragon_48k",
+    "dragon_100k",
+    "dragon_202k",
+    "dragon_871k",
+];
