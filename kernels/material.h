@@ -75,4 +75,21 @@ inline float3 material_sample(uint type, float3 color, float3 wo, float3 n, floa
     return color;
 }
 
+#if CLPT_NEE
+/* The solid-angle density with which material_sample's diffuse branch returns wi, from the side
+ * whose geometric normal is facing_g and shading normal facing: the cosine density about facing,
+ * plus that of the direction mirrored into wi across the geometric surface. The branch returns
+ * the weight `color`, so its BSDF times cosine is color times this density, whatever the
+ * shading normal: light sampling (nee.h) needs both to weigh the two strategies alike. With
+ * facing == facing_g the mirrored term is 0 and this is pbrt's cos / pi. */
+inline float diffuse_pdf(float3 wi, float3 facing, float3 facing_g) {
+    const float side = dot(wi, facing_g);
+    if (!(side > 0.0f)) {
+        return 0.0f;
+    }
+    const float3 mirrored = wi - 2.0f * side * facing_g;
+    return (fmax(0.0f, dot(wi, facing)) + fmax(0.0f, dot(mirrored, facing))) * M_1_PI_F;
+}
+#endif
+
 #endif

@@ -1,31 +1,75 @@
 /* nee.h: next-event estimation with multiple importance sampling (Veach 1997, ch. 9; pbrt-v4
  * section 13.4).
  *
- * Reads: the light list (ObjectRef entries the host chose, upload.rs `collect_lights`: spheres
- * and axis-aligned planes of constant emission, untransformed), their spheres, planes and
- * materials. Writes: nothing. Why: a small bright light is found by BSDF sampling only rarely,
- * so pure path tracing converges slowly on it (the original's report says so of its light
- * balls). At every diffuse vertex one light, chosen uniformly, is sampled (a sphere by the cone
- * it subtends, uniformly in solid angle; a plane uniformly over its square) and joined by a
- * shadow ray. Paths that hit a listed light by BSDF sampling after such a vertex weigh its
- * emission by the power heuristic, and light samples the complement, so the two strategies
- * add up to one estimate of the same integral: unbiased, as pure path tracing.
+ * Reads: the light list (types.h `Light` entries the host chose and placed in world space,
+ * upload.rs `collect_lights`: spheres, squares of planes and mesh triangles of constant
+ * emission) and their materials. Writes: nothing. Why: a small bright light is found by BSDF
+ * sampling only rarely, so pure path tracing converges slowly on it (the original's report says
+ * so of its light balls). At every diffuse vertex one light is picked in proportion to its power
+ * and sampled (a sphere by the cone it subtends, uniformly in solid angle; a square or a
+ * triangle uniformly over its area) and joined by a shadow ray. Paths that hit a listed light by
+ * BSDF sampling after such a vertex weigh its emission by the power heuristic, and light samples
+ * the complement, so the two strategies add up to one estimate of the same integral: unbiased,
+ * as pure path tracing.
  */
 #ifndef CLPT_NEE_H
 #define CLPT_NEE_H
 
-/* Whether `hit` is on an object of the light list. A search of the list, so that the host's
- * choice is the only rule. */
-inline bool is_listed_light(const Scene* sc, Hit hit) {
-    const uint kind = hit.kind == HIT_SPHERE ? OBJECT_SPHERE
-                      : hit.kind == HIT_PLANE ? OBJECT_PLANE
-                                              : 0xffffffffu;
-    for (uint i = 0u; i < sc->params->num_lights; ++i) {
-        if (sc->lights[i].kind == kind && sc->lights[i].index == hit.index) {
-            return true;
+/* The light-list key of a hit: the entry it would have, if listed. */
+inline uint light_kind_of(Hit hit) {
+    return hit.kind == HIT_SPHERE  ? OBJECT_SPHERE
+           : hit.kind == HIT_PLANE ? OBJECT_PLANE
+           : hit.kind == HIT_MESH  ? OBJECT_MESH
+                                   : 0xffffffffu;
+}
+
+/* Whether light entry l is keyed before (kind, index, triangle). */
+inline bool light_before(__global const Light* l, uint kind, uint index, uint triangle) {
+    if (l->kind != kind) {
+        return l->kind < kind;
+    }
+    if (l->index != index) {
+        return l->index < index;
+    }
+    return l->triangle < triangle;
+}
+
+/* The light-list entry of what `hit` hit, by binary search of the sorted list, or -1 when it is
+ * not listed: the host's choice is the only rule. */
+inline int find_light(const Scene* sc, Hit hit) {
+    const uint kind = light_kind_of(hit);
+    const uint triangle = hit.kind == HIT_MESH ? hit.prim : 0u;
+    uint lo = 0u, hi = sc->params->num_lights;
+    while (lo < hi) {
+        const uint mid = (lo + hi) / 2u;
+        if (light_before(&sc->lights[mid], kind, hit.index, triangle)) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
         }
     }
-    return false;
+    if (lo < sc->params->num_lights) {
+        __global const Light* l = &sc->lights[lo];
+        if (l->kind == kind && l->index == hit.index && l->triangle == triangle) {
+            return (int)lo;
+        }
+    }
+    return -1;
+}
+
+/* The entry a uniform u picks: the first whose cdf exceeds u (entries of prob 0 are never
+ * picked), the last if rounding left u above every cdf. */
+inline uint pick_light(const Scene* sc, float u) {
+    uint lo = 0u, hi = sc->params->num_lights - 1u;
+    while (lo < hi) {
+        const uint mid = (lo + hi) / 2u;
+        if (sc->lights[mid].cdf <= u) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return lo;
 }
 
 /* 1 - cos of the half-angle of the cone a sphere of squared radius r2 subtends from squared
@@ -35,24 +79,25 @@ inline float cone_one_minus_cos(float r2, float d2) {
     return sin2 / (1.0f + sqrt(fmax(0.0f, 1.0f - sin2)));
 }
 
-/* The solid-angle density, from p, with which light `ref` would have been sampled in the
- * direction that reaches it at distance t with cosine cos_l at the light (times the choice of
- * the light, 1 / num_lights). 0 where it would not have been (p inside a sphere). */
-inline float light_pdf(const Scene* sc, ObjectRef ref, float3 p, float t, float cos_l) {
-    const float choose = 1.0f / (float)sc->params->num_lights;
-    if (ref.kind == OBJECT_SPHERE) {
-        __global const Sphere* s = &sc->spheres[ref.index];
-        const float3 c = vload3(0, s->center);
+/* The cosine at light l of a direction d arriving there: a plane's square emits to its
+ * normal's side only, a triangle to both. */
+inline float light_cosine(__global const Light* l, float3 d) {
+    const float c = -dot(vload3(0, l->normal), d);
+    return l->kind == OBJECT_MESH ? fabs(c) : c;
+}
+
+/* The solid-angle density, from p, with which light sampling picks light l and the direction d
+ * that reaches it at distance t. 0 where it would not have been (p inside a sphere, a square
+ * seen from behind). */
+inline float light_pdf(__global const Light* l, float3 p, float3 d, float t) {
+    if (l->kind == OBJECT_SPHERE) {
+        const float3 c = vload3(0, l->corner);
         const float d2 = dot(c - p, c - p);
-        const float r2 = s->radius * s->radius;
-        if (d2 <= r2) {
-            return 0.0f;
-        }
-        return choose / (2.0f * M_PI_F * cone_one_minus_cos(r2, d2));
+        const float r2 = l->radius * l->radius;
+        return d2 > r2 ? l->prob / (2.0f * M_PI_F * cone_one_minus_cos(r2, d2)) : 0.0f;
     }
-    __global const Plane* pl = &sc->planes[ref.index];
-    const float area = 4.0f * pl->range * pl->range;
-    return cos_l > 0.0f ? choose * t * t / (cos_l * area) : 0.0f;
+    const float cos_l = light_cosine(l, d);
+    return cos_l > 0.0f ? l->prob * t * t / (cos_l * l->area) : 0.0f;
 }
 
 /* The power heuristic's weight of a strategy of density a against one of density b. */
@@ -61,35 +106,30 @@ inline float mis_weight(float a, float b) {
     return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
-/* The weight of emission found by BSDF sampling from p (which sampled the direction with
- * density pdf_bsdf and also sampled a light) on hit, at distance t with unit direction d. */
+/* The weight of emission found by BSDF sampling from p (which sampled the unit direction d with
+ * density pdf_bsdf and also sampled a light) at the surface s of hit. */
 inline float emission_weight(const Scene* sc, Hit hit, Surface s, float3 p, float pdf_bsdf,
                              float3 d) {
-    if (!is_listed_light(sc, hit)) {
+    const int entry = find_light(sc, hit);
+    if (entry < 0) {
         return 1.0f;
     }
-    ObjectRef ref;
-    ref.kind = hit.kind == HIT_SPHERE ? OBJECT_SPHERE : OBJECT_PLANE;
-    ref.index = hit.index;
-    const float pdf_light = light_pdf(sc, ref, p, length(s.p - p), -dot(s.n, d));
-    return mis_weight(pdf_bsdf, pdf_light);
+    return mis_weight(pdf_bsdf, light_pdf(&sc->lights[entry], p, d, length(s.p - p)));
 }
 
-/* One light sample from the diffuse surface s (albedo `color`, facing normal `facing`, geometric
- * facing normal `facing_g`): its MIS-weighted contribution f cos Le w / pdf, or 0. */
+/* One light sample from the diffuse surface s (albedo `color`, shading and geometric normals
+ * facing the arriving path `facing` and `facing_g`): its MIS-weighted contribution
+ * f cos Le w / pdf, or 0. */
 inline float3 sample_light(const Scene* sc, Surface s, float3 facing, float3 facing_g,
                            float3 color, float4 u) {
-    const uint count = sc->params->num_lights;
-    const uint pick = min((uint)(u.x * (float)count), count - 1u);
-    const ObjectRef ref = sc->lights[pick];
+    const uint pick = pick_light(sc, u.x);
+    __global const Light* l = &sc->lights[pick];
     float3 wi;
     float pdf;
-    uint material;
-    if (ref.kind == OBJECT_SPHERE) {
-        __global const Sphere* sp = &sc->spheres[ref.index];
-        const float3 c = vload3(0, sp->center);
+    if (l->kind == OBJECT_SPHERE) {
+        const float3 c = vload3(0, l->corner);
         const float d2 = dot(c - s.p, c - s.p);
-        const float r2 = sp->radius * sp->radius;
+        const float r2 = l->radius * l->radius;
         if (d2 <= r2) {
             return (float3)(0.0f);
         }
@@ -102,39 +142,37 @@ inline float3 sample_light(const Scene* sc, Surface s, float3 facing, float3 fac
         float3 t, b;
         orthonormal_basis(w, &t, &b);
         wi = normalize(t * (sin_t * cos(phi)) + b * (sin_t * sin(phi)) + w * cos_t);
-        pdf = 1.0f / (2.0f * M_PI_F * one_minus * (float)count);
-        material = sp->material;
+        pdf = l->prob / (2.0f * M_PI_F * one_minus);
     } else {
-        __global const Plane* pl = &sc->planes[ref.index];
-        const float3 n = vload3(0, pl->normal);
-        /* The square is n * offset + [-range, range] along the two other axes. */
-        const float3 a = fabs(n.x) > 0.0f ? (float3)(0.0f, 1.0f, 0.0f) : (float3)(1.0f, 0.0f, 0.0f);
-        const float3 b = fabs(n.z) > 0.0f ? (float3)(0.0f, 1.0f, 0.0f) : (float3)(0.0f, 0.0f, 1.0f);
-        const float3 q = n * pl->offset + a * ((2.0f * u.y - 1.0f) * pl->range) +
-            b * ((2.0f * u.z - 1.0f) * pl->range);
+        /* Uniform over the square, or over the triangle by folding the square's far half onto
+         * it (pbrt-v4 section A.5.5 samples triangles otherwise; this is equally uniform). */
+        float a = u.y, b = u.z;
+        if (l->kind == OBJECT_MESH && a + b > 1.0f) {
+            a = 1.0f - a;
+            b = 1.0f - b;
+        }
+        const float3 q = vload3(0, l->corner) + vload3(0, l->edge1) * a + vload3(0, l->edge2) * b;
         const float3 to = q - s.p;
         const float dist2 = dot(to, to);
         wi = to / sqrt(dist2);
-        const float cos_l = -dot(n, wi);
+        const float cos_l = light_cosine(l, wi);
         if (!(cos_l > 0.0f)) {
-            return (float3)(0.0f); /* the plane's back: it emits to the side n points to */
+            return (float3)(0.0f); /* a square seen from behind, or a triangle edge-on */
         }
-        pdf = dist2 / (cos_l * 4.0f * pl->range * pl->range * (float)count);
-        material = pl->material;
+        pdf = l->prob * dist2 / (cos_l * l->area);
     }
-    const float cos_s = dot(wi, facing);
-    if (!(cos_s > 0.0f && dot(wi, facing_g) > 0.0f && pdf > 0.0f && isfinite(pdf))) {
+    const float pdf_bsdf = diffuse_pdf(wi, facing, facing_g);
+    if (!(pdf_bsdf > 0.0f && pdf > 0.0f && isfinite(pdf))) {
         return (float3)(0.0f);
     }
     const float3 o = offset_ray_origin(s.p, s.p_error, s.n, wi);
     const Hit h = scene_intersect(sc, o, wi);
-    const uint wanted = ref.kind == OBJECT_SPHERE ? HIT_SPHERE : HIT_PLANE;
-    if (h.kind != wanted || h.index != ref.index) {
+    const uint triangle = h.kind == HIT_MESH ? h.prim : 0u;
+    if (light_kind_of(h) != l->kind || h.index != l->index || triangle != l->triangle) {
         return (float3)(0.0f); /* blocked */
     }
-    const float3 le = vload3(0, sc->materials[material].emission);
-    const float pdf_bsdf = cos_s * M_1_PI_F;
-    return color * M_1_PI_F * cos_s * le * (mis_weight(pdf, pdf_bsdf) / pdf);
+    const float3 le = vload3(0, sc->materials[l->material].emission);
+    return color * le * (pdf_bsdf * mis_weight(pdf, pdf_bsdf) / pdf);
 }
 
 #endif

@@ -54,7 +54,7 @@ typedef struct Scene {
     __global const BvhNode* bvh;
     __global const RevSurface* revsurfaces;
     __global const float2* rev_points;
-    __global const ObjectRef* lights;
+    __global const Light* lights;
 } Scene;
 
 #define SCENE_KERNEL_ARGS                                                                     \
@@ -67,7 +67,7 @@ typedef struct Scene {
         __global const float *vertices, __global const float *normals,                       \
         __global const ObjectRef *objects, __global const BvhNode *bvh,                      \
         __global const RevSurface *revsurfaces, __global const float2 *rev_points,            \
-        __global const ObjectRef *lights
+        __global const Light *lights
 #define SCENE_FROM_KERNEL_ARGS                                                                \
     {params,   materials,  spheres,   planes,   maps,     texels,  transforms, meshes,        \
      mesh_instances, kd_nodes, kd_indices, triangles, vertices, normals, objects, bvh,         \

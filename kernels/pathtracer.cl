@@ -92,24 +92,26 @@ inline float3 trace_path(const Scene* sc, uint px, uint py, uint sample) {
         const Surface s = scene_surface(sc, hit, o, d);
         const SurfaceMaterial sm = material_at(sc, hit, s);
 #if CLPT_NEE
-        const float w_emission =
-            sampled_light ? emission_weight(sc, hit, s, prev_p, prev_pdf, d) : 1.0f;
-        radiance += throughput * sm.emission * w_emission;
+        if (any(sm.emission != (float3)(0.0f))) {
+            const float w_emission =
+                sampled_light ? emission_weight(sc, hit, s, prev_p, prev_pdf, d) : 1.0f;
+            radiance += throughput * sm.emission * w_emission;
+        }
 #else
         radiance += throughput * sm.emission;
 #endif
 
         const float4 u = rng_next4(&rng);
 #if CLPT_NEE
-        /* Light sampling at diffuse vertices whose shading normal is the geometric one (a bent
-         * normal makes the BSDF's density other than cos / pi: those vertices keep BSDF
-         * sampling alone, and the emission they find its full weight). */
-        const float3 facing = dot(d, s.n) <= 0.0f ? s.n : -s.n;
-        sampled_light = sm.type == MATERIAL_DIFFUSE && params->num_lights > 0u &&
-                        all(isequal(sm.shading_normal, s.n));
+        /* Light sampling at every diffuse vertex, bent shading normals (bump maps, smooth
+         * meshes) included: material.h's diffuse_pdf gives the BSDF strategy's density there. */
+        const bool front = dot(d, s.n) <= 0.0f;
+        const float3 facing_g = front ? s.n : -s.n;
+        const float3 facing = front ? sm.shading_normal : -sm.shading_normal;
+        sampled_light = sm.type == MATERIAL_DIFFUSE && params->num_lights > 0u;
         if (sampled_light) {
             radiance +=
-                throughput * sample_light(sc, s, facing, facing, sm.color, rng_next4(&rng));
+                throughput * sample_light(sc, s, facing, facing_g, sm.color, rng_next4(&rng));
         }
 #endif
         float3 wi;
@@ -117,7 +119,7 @@ inline float3 trace_path(const Scene* sc, uint px, uint py, uint sample) {
 #if CLPT_NEE
         if (sampled_light) {
             prev_p = s.p;
-            prev_pdf = fmax(0.0f, dot(wi, facing)) * M_1_PI_F;
+            prev_pdf = diffuse_pdf(wi, facing, facing_g);
         }
 #endif
 

@@ -84,6 +84,23 @@ __kernel void probe_material(__global const uint* type, __global const float* wo
     vstore3(weight, 2 * i + 1, out);
 }
 
+/* The diffuse branch with a bent shading normal: input wo, n, ns and a direction w (12 floats)
+ * and four uniforms; output the sampled wi and diffuse_pdf(w) for the side wo arrived on. */
+__kernel void probe_diffuse(__global const float* wo_n_ns_w, __global const float4* u,
+                            __global float* out) {
+    const uint i = get_global_id(0);
+    const float3 wo = vload3(4 * i, wo_n_ns_w);
+    const float3 n = vload3(4 * i + 1, wo_n_ns_w);
+    const float3 ns = vload3(4 * i + 2, wo_n_ns_w);
+    float3 wi;
+    material_sample(MATERIAL_DIFFUSE, (float3)(1.0f), wo, n, ns, u[i], &wi);
+    const bool front = dot(wo, n) >= 0.0f;
+    const float pdf =
+        diffuse_pdf(vload3(4 * i + 3, wo_n_ns_w), front ? ns : -ns, front ? n : -n);
+    vstore3(wi, 0, out + 4 * i);
+    out[4 * i + 3] = pdf;
+}
+
 /* Texture coordinates and directions of a hit: input as probe_hit (9 floats, w unused); output
  * 8 floats: u, v, dpdu[3], dpdv[3] (zeros on a miss). */
 __kernel void probe_mapping(SCENE_KERNEL_ARGS, __global const float* rays,

@@ -172,6 +172,26 @@ typedef struct ObjectRef {
 } ObjectRef;
 CLPT_ASSERT_SIZE(ObjectRef, 8);
 
+/* An emitter of the light list that next-event estimation samples (nee.h), in world space
+ * (the host applied its object's transform: upload.rs `collect_lights`). Entries are sorted by
+ * (kind, index, triangle), so that a hit finds its entry by binary search, and `cdf` rises along
+ * them, so that a uniform number picks an entry with probability `prob`. */
+typedef struct Light {
+    uint kind;             /* OBJECT_SPHERE, OBJECT_PLANE or OBJECT_MESH, as the hit is */
+    uint index;            /* the sphere, plane or mesh instance */
+    uint triangle;         /* a mesh's triangle (Hit.prim); 0 for spheres and planes */
+    uint material;         /* of constant emission */
+    float corner[3];       /* a sphere's centre; a square's or a triangle's first corner */
+    float edge1[3];        /* a square's or a triangle's edges from that corner */
+    float edge2[3];
+    float normal[3];       /* unit; a plane emits to this side, a triangle to both */
+    float radius;          /* a sphere's */
+    float area;            /* a square's or a triangle's */
+    float prob;            /* the probability that light sampling picks this entry */
+    float cdf;             /* the sum of prob up to and including this entry */
+} Light;
+CLPT_ASSERT_SIZE(Light, 80);
+
 /* Everything a render launch needs besides the object arrays, uploaded once per render. */
 typedef struct RenderParams {
     Camera camera;
@@ -187,7 +207,7 @@ typedef struct RenderParams {
     uint max_depth;        /* safety cap on path length (bounces) */
     uint rr_depth;         /* Russian roulette starts at this depth */
     uint texture_filter;   /* FILTER_* */
-    uint num_lights;       /* ObjectRef entries of the light list (next-event estimation) */
+    uint num_lights;       /* Light entries of the light list (next-event estimation) */
 } RenderParams;
 CLPT_ASSERT_SIZE(RenderParams, 140);
 

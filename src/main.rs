@@ -1,4 +1,4 @@
-//! The `clpt` command line: `render`, `devices`, `bench`, `compare`.
+//! The `clpt` command line: `render`, `devices`, `bench`, `compare`, `plot`.
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
@@ -6,7 +6,9 @@ use clpt::device::program::{CacheUse, KernelSources};
 use clpt::device::{self};
 use clpt::render::bench::{BenchResult, bench_scene};
 use clpt::render::metrics::{self, LinearImage};
-use clpt::render::{ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter, report};
+use clpt::render::{
+    ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter, efficiency, report,
+};
 use clpt::scene::{Scene, builtin};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -39,6 +41,37 @@ enum Command {
     Bench(BenchArgs),
     /// Print RMSE, relMSE and MAE of an image against a reference (PFM, EXR, PNG, PPM).
     Compare(CompareArgs),
+    /// Compare renders by their `--report` CSVs: relMSE x seconds (flat for an unbiased
+    /// renderer), the time each needs to reach given errors, and a plot of it.
+    Plot(PlotArgs),
+}
+
+#[derive(Args)]
+#[command(
+    after_help = "Example:\n  clpt render scene.txt --time 60 --reference ref.pfm --report nee.csv\n  \
+    clpt render scene.txt --time 60 --reference ref.pfm --report pt.csv --no-nee\n  \
+    clpt plot NEE=nee.csv 'path tracing=pt.csv' --reference-error 2e-5 -o efficiency.svg"
+)]
+struct PlotArgs {
+    /// Reports as LABEL=FILE.csv (or FILE.csv, labelled by its name).
+    #[arg(required = true)]
+    runs: Vec<String>,
+    /// The reference's own relMSE (the last relmse_estimate of its report), subtracted from
+    /// every measured relMSE: a reference's variance adds to the error measured against it.
+    #[arg(long, value_name = "E", default_value_t = 0.0)]
+    reference_error: f64,
+    /// The relMSE levels to give times for.
+    #[arg(long, value_name = "E,...", value_delimiter = ',', default_values_t = [1e-2, 1e-3])]
+    errors: Vec<f64>,
+    /// Write the plot (SVG or PNG) of relMSE x seconds against seconds.
+    #[arg(short, long, value_name = "FILE")]
+    output: Option<PathBuf>,
+    /// The plot's title.
+    #[arg(
+        long,
+        default_value = "relMSE x seconds (flat: unbiased; lower: sooner to any error)"
+    )]
+    title: String,
 }
 
 #[derive(Args)]
@@ -392,6 +425,59 @@ fn compare(args: &CompareArgs) -> Result<()> {
     Ok(())
 }
 
+fn plot(args: &PlotArgs) -> Result<()> {
+    let runs = args
+        .runs
+        .iter()
+        .map(|arg| {
+            let (label, file) = match arg.split_once('=') {
+                Some((label, file)) => (label.to_string(), PathBuf::from(file)),
+                None => {
+                    let file = PathBuf::from(arg);
+                    let stem = file
+                        .file_stem()
+                        .map_or(arg.clone(), |s| s.to_string_lossy().into());
+                    (stem, file)
+                }
+            };
+            let rows = efficiency::read_report(&file)?;
+            Ok(efficiency::Run { label, rows })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    print!("{:<24} {:>10} {:>14}", "run", "spp/s", "relMSE x s");
+    for e in &args.errors {
+        print!(" {:>14}", format!("s to {e:e}"));
+    }
+    println!();
+    for run in &runs {
+        let summary = efficiency::summarize(run, args.reference_error)?;
+        print!(
+            "{:<24} {:>10.1} {:>14.4e}",
+            run.label, summary.spp_per_second, summary.level
+        );
+        for &e in &args.errors {
+            let t = summary.time_to(e);
+            let mark = if t > summary.seconds { "*" } else { "" };
+            print!(" {:>14}", format!("{t:.3}{mark}"));
+        }
+        println!(
+            "{}",
+            if summary.measured {
+                ""
+            } else {
+                "  (estimated error)"
+            }
+        );
+    }
+    println!(
+        "relMSE x s: median over each run's last decade of time; * past the run's end (MSE x t flat)"
+    );
+    if let Some(path) = &args.output {
+        report::write_efficiency_plot(path, &runs, args.reference_error, &args.title)?;
+    }
+    Ok(())
+}
+
 fn devices() -> Result<()> {
     for (_, _, d) in device::list()? {
         println!("{d}");
@@ -425,5 +511,6 @@ fn main() -> Result<()> {
         Command::Devices => devices(),
         Command::Bench(args) => bench(args),
         Command::Compare(args) => compare(args),
+        Command::Plot(args) => plot(args),
     }
 }

@@ -1,12 +1,16 @@
 //! The error a render reports about itself, and light sampling. On three small scenes (a room of
 //! planes lit by a large sphere, smallpt, and the same room lit by one small bright sphere out of
-//! the picture, the stiff case of the original's `case5_light_balls.txt`):
+//! the picture, the stiff case of the original's `case5_light_balls.txt`: scenes/room.txt,
+//! the built-in smallpt and scenes/small_light.txt, at 24x18):
 //! - renders of 8 to 8192 samples per pixel (three decades of run time) estimate their RMSE
 //!   from the even and odd halves of their samples within a factor of 1.5 of the RMSE measured
 //!   against a 131072-sample reference, and MSE × samples stays within a factor of 1.5 of its
 //!   mean: the error falls as 1/√t, as an unbiased estimator's does;
 //! - next-event estimation with MIS and pure path tracing converge to the same image: every
-//!   quadrant's mean, per channel, agrees within 5 standard errors.
+//!   quadrant's mean, per channel, agrees within 5 standard errors, on those three scenes and on
+//!   one lit by every kind of listed emitter (a transformed sphere, a rotated square, the
+//!   triangles of a scaled mesh) and an unlisted ellipsoid, with bump-mapped and smooth-normal
+//!   diffuse surfaces (tests/common `every_light_scene`).
 //!
 //! The small light is kept out of the picture: seen directly, its few pixels of Bernoulli
 //! coverage (0 or 400) carry nearly all of the image's RMSE, and with so few degrees of freedom
@@ -20,7 +24,6 @@ use clpt::render::film::Film;
 use clpt::render::metrics::LinearImage;
 use clpt::render::{PassReport, RenderOptions};
 use clpt::scene::Scene;
-use clpt::scene::parse::parse_scene;
 use std::sync::Arc;
 
 /// How far the estimate may stray from the measured error, either way.
@@ -32,33 +35,18 @@ fn small(mut scene: Scene) -> Scene {
     scene
 }
 
+/// The three scenes, shrunk to 24x18: scenes/room.txt, smallpt and scenes/small_light.txt.
 fn scenes() -> Vec<(&'static str, Scene)> {
-    let room = |light: &str, height: f64, radius: f64, z: f64| {
-        format!(
-            "PerspectiveCamera {{ center 0 0 9 direction 0 0 -1 angle 40 width 24 height 18 }}\n\
-             Materials {{ numMaterials 4 Material {{ emission {light} }} \
-             Material {{ color 0.75 0.25 0.25 }} Material {{ color 0.25 0.25 0.75 }} \
-             Material {{ color 0.75 0.75 0.75 }} }}\n\
-             Group {{ numObjects 8 \
-             MaterialIndex 1 Plane {{ normal 1 0 0 offset -4 range 100 }} \
-             MaterialIndex 2 Plane {{ normal -1 0 0 offset -4 range 100 }} \
-             MaterialIndex 3 Plane {{ normal 0 1 0 offset -3 range 100 }} \
-             Plane {{ normal 0 -1 0 offset -3 range 100 }} \
-             Plane {{ normal 0 0 1 offset -4 range 100 }} \
-             Sphere {{ center -1.5 -2 -1 radius 1 }} \
-             Sphere {{ center 1.5 -2 0 radius 1 }} \
-             MaterialIndex 0 Sphere {{ center 0 {height} {z} radius {radius} }} }}\n"
-        )
+    let load = |file: &str| {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(file);
+        small(Scene::load(&path).unwrap_or_else(|e| panic!("{e}")))
     };
-    let parse =
-        |text: String, name: &str| parse_scene(&text, name).unwrap_or_else(|e| panic!("{e}"));
     vec![
-        ("room", parse(room("1.5 1.5 1.5", 5.2, 2.5, -1.0), "room")),
+        ("room", load("room.txt")),
         ("smallpt", small(clpt::scene::builtin::scene().unwrap())),
-        (
-            "small light",
-            parse(room("400 400 400", 2.8, 0.1, 4.0), "small light"),
-        ),
+        ("small light", load("small_light.txt")),
     ]
 }
 
@@ -158,7 +146,10 @@ fn light_sampling_and_pure_path_tracing_agree() {
         };
         common::render(scene, options).0
     };
-    for (name, scene) in scenes() {
+    let dir = std::env::temp_dir().join(format!("clpt-convergence-{}", std::process::id()));
+    let mut all = scenes();
+    all.push(("every light", common::every_light_scene(&dir)));
+    for (name, scene) in all {
         let with = film(&scene, true, 2048, 7);
         let without = film(&scene, false, 8192, 8);
         for q in 0..4 {
@@ -175,4 +166,5 @@ fn light_sampling_and_pure_path_tracing_agree() {
             }
         }
     }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -229,6 +229,25 @@ pub struct ObjectRef {
 }
 const _: () = assert!(size_of::<ObjectRef>() == 8);
 
+/// `Light` in `types.h`: an emitter of next-event estimation's light list, in world space.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Light {
+    pub kind: u32,
+    pub index: u32,
+    pub triangle: u32,
+    pub material: u32,
+    pub corner: [f32; 3],
+    pub edge1: [f32; 3],
+    pub edge2: [f32; 3],
+    pub normal: [f32; 3],
+    pub radius: f32,
+    pub area: f32,
+    pub prob: f32,
+    pub cdf: f32,
+}
+const _: () = assert!(size_of::<Light>() == 80);
+
 /// `Plane` in `types.h`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
@@ -330,6 +349,11 @@ pub const LAYOUT: &[StructLayout] = &[
         mesh => "mesh", transform => "transform", material => "material",
     }),
     layout!(ObjectRef, "ObjectRef", { kind => "kind", index => "index" }),
+    layout!(Light, "Light", {
+        kind => "kind", index => "index", triangle => "triangle", material => "material",
+        corner => "corner", edge1 => "edge1", edge2 => "edge2", normal => "normal",
+        radius => "radius", area => "area", prob => "prob", cdf => "cdf",
+    }),
     layout!(RevSurface, "RevSurface", {
         first_point => "first_point", num_segments => "num_segments", degree => "degree",
         material => "material", transform => "transform",

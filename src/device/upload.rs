@@ -6,9 +6,10 @@
 
 use super::Device;
 use super::layout::{
-    self, BvhNode, KdNode, Material, MeshDesc, MeshInstance, ObjectRef, Plane, RenderParams,
+    self, BvhNode, KdNode, Light, Material, MeshDesc, MeshInstance, ObjectRef, Plane, RenderParams,
     RevSurface, Sphere, Transform,
 };
+use super::lights;
 use crate::accel::aabb::Aabb;
 use crate::accel::bvh::Bvh;
 use crate::accel::kdtree::{KdParams, KdTree};
@@ -56,8 +57,8 @@ pub struct PackedScene {
     pub first_unbounded: u32,
     pub bvh: Vec<BvhNode>,
     pub revsurfaces: Vec<RevSurface>,
-    /// The emitters next-event estimation samples ([`PackedScene::collect_lights`]).
-    pub lights: Vec<ObjectRef>,
+    /// The emitters next-event estimation samples ([`lights::collect_lights`]).
+    pub lights: Vec<Light>,
     /// Control points (x, y) of every surface of revolution's Bezier segments.
     pub rev_points: Vec<[f32; 2]>,
     /// World boxes of `objects[..first_unbounded]`, as the BVH was built on them.
@@ -402,36 +403,18 @@ impl PackedScene {
         }
     }
 
-    /// The light list: spheres, and planes whose normal is along an axis (their visible part
-    /// is then a square), that emit a constant radiance and are not transformed. Other
-    /// emitters (emission maps, transforms, tilted planes, meshes, revolved surfaces) are
-    /// found by BSDF sampling alone. The device applies the same rule to the object a path
-    /// hits (nee.h, `sampled_light`): keep the two in step.
+    /// The light list of next-event estimation ([`lights::collect_lights`]).
     fn collect_lights(&mut self) {
-        let emits = |m: u32| {
-            self.materials.get(m as usize).is_some_and(|m| {
-                m.emission.iter().any(|&e| e > 0.0) && m.emission_map == layout::MAP_NONE
-            })
-        };
-        let mut lights = Vec::new();
-        for (i, s) in self.spheres.iter().enumerate() {
-            if emits(s.material) && s.transform == layout::TRANSFORM_NONE {
-                lights.push(ObjectRef {
-                    kind: layout::OBJECT_SPHERE,
-                    index: i as u32,
-                });
-            }
-        }
-        for (i, p) in self.planes.iter().enumerate() {
-            let axis_aligned = p.normal.iter().filter(|&&c| c != 0.0).count() == 1;
-            if emits(p.material) && p.transform == layout::TRANSFORM_NONE && axis_aligned {
-                lights.push(ObjectRef {
-                    kind: layout::OBJECT_PLANE,
-                    index: i as u32,
-                });
-            }
-        }
-        self.lights = lights;
+        self.lights = lights::collect_lights(&lights::LightSources {
+            materials: &self.materials,
+            spheres: &self.spheres,
+            planes: &self.planes,
+            transforms: &self.transforms,
+            meshes: &self.meshes,
+            mesh_instances: &self.mesh_instances,
+            triangles: &self.triangles,
+            vertices: &self.vertices,
+        });
     }
 }
 

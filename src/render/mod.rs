@@ -9,6 +9,7 @@
 //! sums, so the image does not depend on how the work was split.
 
 pub mod bench;
+pub mod efficiency;
 pub mod features;
 pub mod film;
 pub mod metrics;

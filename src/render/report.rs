@@ -67,7 +67,7 @@ pub fn write_report(path: &Path, rows: &[PassReport]) -> Result<()> {
 
 /// A polyline of (seconds, value) and how to draw it.
 struct Series {
-    label: &'static str,
+    label: String,
     points: Vec<(f64, f64)>,
     colour: [u8; 3],
     dashed: bool,
@@ -85,7 +85,7 @@ pub fn write_plot(path: &Path, rows: &[PassReport], title: &str) -> Result<()> {
     let (t0, e0) = estimate[0];
     let t1 = rows[rows.len() - 1].seconds;
     let mut series = vec![Series {
-        label: "estimated RMSE (even/odd halves)",
+        label: "estimated RMSE (even/odd halves)".into(),
         points: estimate,
         colour: [31, 119, 180],
         dashed: false,
@@ -96,23 +96,87 @@ pub fn write_plot(path: &Path, rows: &[PassReport], title: &str) -> Result<()> {
         .collect();
     if !measured.is_empty() {
         series.push(Series {
-            label: "RMSE against the reference",
+            label: "RMSE against the reference".into(),
             points: measured,
             colour: [214, 39, 40],
             dashed: false,
         });
     }
     series.push(Series {
-        label: "ideal: 1/sqrt(t)",
+        label: "ideal: 1/sqrt(t)".into(),
         points: vec![(t0, e0), (t1, e0 * (t0 / t1).sqrt())],
         colour: [110, 110, 110],
         dashed: true,
     });
-    let plot = Plot::new(&series);
+    draw(path, &series, title, "RMSE")
+}
+
+/// Colours of successive runs (matplotlib's first four).
+const PALETTE: [[u8; 3]; 4] = [
+    [31, 119, 180],
+    [214, 39, 40],
+    [44, 160, 44],
+    [148, 103, 189],
+];
+
+/// Draws relMSE × seconds against seconds (log-log) for each run (efficiency.rs): the error
+/// against the reference, less the reference's own, solid; the estimate, dashed. Flat lines
+/// are what an unbiased renderer draws; the lower a line, the sooner it reaches any error.
+pub fn write_efficiency_plot(
+    path: &Path,
+    runs: &[super::efficiency::Run],
+    reference_relmse: f64,
+    title: &str,
+) -> Result<()> {
+    let mut series = Vec::new();
+    for (i, run) in runs.iter().enumerate() {
+        let colour = PALETTE[i % PALETTE.len()];
+        let timed = || run.rows.iter().filter(|r| r.seconds > 0.0);
+        let measured: Vec<(f64, f64)> = timed()
+            .filter(|r| r.measured.is_some())
+            .map(|r| {
+                (
+                    r.seconds,
+                    super::efficiency::relmse(r, reference_relmse) * r.seconds,
+                )
+            })
+            .filter(|p| p.1 > 0.0)
+            .collect();
+        if !measured.is_empty() {
+            series.push(Series {
+                label: format!("{}: against the reference", run.label),
+                points: measured,
+                colour,
+                dashed: false,
+            });
+        }
+        series.push(Series {
+            label: format!("{}: estimated", run.label),
+            points: timed()
+                .map(|r| (r.seconds, r.estimate.relmse * r.seconds))
+                .filter(|p| p.1 > 0.0)
+                .collect(),
+            colour,
+            dashed: true,
+        });
+    }
+    if series.iter().all(|s| s.points.len() < 2) {
+        return Err(Error::Invalid(
+            "a plot needs at least two passes of 8 samples per pixel or more".into(),
+        ));
+    }
+    draw(path, &series, title, "relMSE x seconds")
+}
+
+/// Writes `series` as SVG or PNG, by the extension of `path`.
+fn draw(path: &Path, series: &[Series], title: &str, y_label: &str) -> Result<()> {
+    let plot = Plot::new(series);
     match extension(path).as_str() {
-        "svg" => std::fs::write(path, plot.svg(&series, title)).map_err(|e| write_error(path, e)),
+        "svg" => {
+            std::fs::write(path, plot.svg(series, title, y_label)).map_err(|e| write_error(path, e))
+        }
         "png" => plot
-            .png(&series)
+            .png(series)
             .save(path)
             .map_err(|e| write_error(path, e)),
         other => Err(unknown(path, other, ".svg or .png")),
@@ -164,7 +228,7 @@ impl Plot {
         )
     }
 
-    fn svg(&self, series: &[Series], title: &str) -> String {
+    fn svg(&self, series: &[Series], title: &str, y_label: &str) -> String {
         let mut s = format!(
             "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{W}\" height=\"{H}\" \
              font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
@@ -199,11 +263,12 @@ impl Plot {
         let _ = writeln!(
             s,
             "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">seconds</text>\
-             <text x=\"18\" y=\"{}\" transform=\"rotate(-90 18 {})\" text-anchor=\"middle\">RMSE</text>",
+             <text x=\"18\" y=\"{}\" transform=\"rotate(-90 18 {})\" text-anchor=\"middle\">{}</text>",
             (LEFT + W - RIGHT) / 2.0,
             H - 20.0,
             (TOP + H - BOTTOM) / 2.0,
-            (TOP + H - BOTTOM) / 2.0
+            (TOP + H - BOTTOM) / 2.0,
+            escape(y_label)
         );
         for (i, line) in series.iter().enumerate() {
             let points: Vec<String> = line
@@ -225,9 +290,9 @@ impl Plot {
                 "<polyline fill=\"none\" stroke=\"rgb({r},{g},{b})\" stroke-width=\"2\"{dash} points=\"{}\"/>\
                  <text x=\"{}\" y=\"{}\" fill=\"rgb({r},{g},{b})\">{}</text>",
                 points.join(" "),
-                W - RIGHT - 230.0,
+                W - RIGHT - 300.0,
                 TOP + 16.0 + 16.0 * i as f64,
-                escape(line.label)
+                escape(&line.label)
             );
         }
         s.push_str("</svg>\n");

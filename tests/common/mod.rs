@@ -204,3 +204,71 @@ pub const DRAGONS: [&str; 5] = [
     "dragon_202k",
     "dragon_871k",
 ];
+
+/// A room lit by every kind of emitter the light list takes, and one it leaves to BSDF
+/// sampling, with diffuse surfaces whose shading normals are bent (a bump-mapped wall, a smooth
+/// mesh ball), written to `dir` (its two OBJ files) and parsed:
+/// - a sphere under a similarity (listed, as a world sphere of radius 0.4);
+/// - an axis-aligned plane's square, rotated (listed, as a parallelogram facing down);
+/// - a two-triangle quad mesh under a non-uniform scale and a rotation (listed, two-sided);
+/// - an ellipsoid (not listed: BSDF sampling finds it at full weight).
+pub fn every_light_scene(dir: &std::path::Path) -> clpt::scene::Scene {
+    std::fs::create_dir_all(dir).unwrap();
+    std::fs::write(
+        dir.join("quad.obj"),
+        "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    // An octahedron with vertex normals along its vertices: shading normals up to 55° off.
+    let mut ball = String::new();
+    for v in ["1 0 0", "-1 0 0", "0 1 0", "0 -1 0", "0 0 1", "0 0 -1"] {
+        ball += &format!("v {v}\nvn {v}\n");
+    }
+    for [a, b, c] in [
+        [1, 3, 5],
+        [3, 2, 5],
+        [2, 4, 5],
+        [4, 1, 5],
+        [3, 1, 6],
+        [2, 3, 6],
+        [4, 2, 6],
+        [1, 4, 6],
+    ] {
+        ball += &format!("f {a}//{a} {b}//{b} {c}//{c}\n");
+    }
+    std::fs::write(dir.join("ball.obj"), ball).unwrap();
+    let assets = concat!(env!("CARGO_MANIFEST_DIR"), "/assets");
+    let text = format!(
+        "PerspectiveCamera {{ center 0 0 9 direction 0 0 -1 angle 40 width 24 height 18 }}\n\
+         Materials {{ numMaterials 8 \
+         Material {{ emission 6 5 4 }} \
+         Material {{ color 0.75 0.25 0.25 texture {{ bump {assets}/bricks_height.png }} }} \
+         Material {{ color 0.25 0.25 0.75 }} \
+         Material {{ color 0.75 0.75 0.75 }} \
+         Material {{ emission 3 4 5 }} \
+         Material {{ emission 4 4 4 }} \
+         Material {{ emission 1 2 1 }} \
+         Material {{ color 0.6 0.7 0.5 }} }}\n\
+         Group {{ numObjects 12 \
+         MaterialIndex 1 Plane {{ normal 1 0 0 offset -4 range 100 \
+           centerp -4 0 0 dirU 0 0 0.5 dirV 0 0.5 0 }} \
+         MaterialIndex 2 Plane {{ normal -1 0 0 offset -4 range 100 }} \
+         MaterialIndex 3 Plane {{ normal 0 1 0 offset -3 range 100 }} \
+         Plane {{ normal 0 -1 0 offset -3 range 100 }} \
+         Plane {{ normal 0 0 1 offset -4 range 100 }} \
+         Plane {{ normal 0 0 -1 offset -12 range 100 }} \
+         MaterialIndex 7 Transform {{ Translate 1.5 -2 0 Mesh {{ obj_file {ball} }} }} \
+         MaterialIndex 0 Transform {{ Translate -1.5 2.2 -1 XRotate 30 UniformScale 0.5 \
+           Sphere {{ center 0 0 0 radius 0.8 }} }} \
+         MaterialIndex 4 Transform {{ Translate 1.8 2.6 -1.5 XRotate 20 ZRotate 15 \
+           Plane {{ normal 0 -1 0 offset 0 range 0.5 }} }} \
+         MaterialIndex 5 Transform {{ Translate 0 2.7 1 ZRotate 160 Scale 0.8 1 0.3 \
+           Mesh {{ obj_file {quad} }} }} \
+         MaterialIndex 6 Transform {{ Translate -2.5 -2.4 1.5 Scale 1 0.4 0.6 \
+           Sphere {{ center 0 0 0 radius 1 }} }} \
+         MaterialIndex 3 Sphere {{ center -1 -2 -1 radius 1 }} }}\n",
+        ball = dir.join("ball.obj").display(),
+        quad = dir.join("quad.obj").display(),
+    );
+    clpt::scene::parse::parse_scene(&text, "every light").unwrap_or_else(|e| panic!("{e}"))
+}
