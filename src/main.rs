@@ -178,7 +178,8 @@ struct RenderArgs {
     /// Stop after this many seconds (at the end of the pass running then).
     #[arg(long, value_name = "SECONDS")]
     time: Option<f64>,
-    /// Stop at the first pass whose estimated relMSE is at most E (from 8 spp on).
+    /// Stop at the first pass whose estimated relMSE is at most E, once the estimate has
+    /// settled (relMSE x spp grown by at most 25% since half the samples).
     #[arg(long, value_name = "E")]
     target_error: Option<f64>,
     /// A converged image of the same scene and size (PFM or EXR): the report then gives the
