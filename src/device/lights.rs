@@ -163,6 +163,17 @@ pub fn collect_lights(scene: &LightSources) -> Vec<Light> {
     sorted
 }
 
+/// One line for `clpt render -v`: how many spheres, squares and triangles the list holds.
+pub fn report(lights: &[Light]) -> String {
+    let count = |kind| lights.iter().filter(|l| l.kind == kind).count();
+    format!(
+        "light list: {} spheres, {} plane squares, {} triangles",
+        count(layout::OBJECT_SPHERE),
+        count(layout::OBJECT_PLANE),
+        count(layout::OBJECT_MESH)
+    )
+}
+
 /// The mean channel of a material's emission, if it emits a constant (unmapped) radiance.
 fn constant_emission(materials: &[Material], material: u32) -> Option<f64> {
     let m = materials.get(material as usize)?;

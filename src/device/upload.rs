@@ -355,7 +355,7 @@ impl PackedScene {
         self.bvh = bvh.nodes;
     }
 
-    /// A line per mesh, for `clpt render -v`.
+    /// A line per mesh, and one for the light list, for `clpt render -v`.
     pub fn mesh_report(&self) -> String {
         let mut out = format!(
             "objects: {} in a BVH of {} nodes, {} outside it",
@@ -375,6 +375,8 @@ impl PackedScene {
                 m.bytes as f64 / m.triangles.max(1) as f64
             ));
         }
+        out.push('\n');
+        out.push_str(&lights::report(&self.lights));
         out
     }
 

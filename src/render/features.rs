@@ -39,7 +39,7 @@ pub struct Features {
     /// Objects whose material emits.
     pub emitters: usize,
     /// Next-event estimation: set by the renderer, which knows the light list it samples
-    /// (upload.rs `collect_lights`) and whether `--no-nee` was given; `of` leaves it off.
+    /// (device/lights.rs `collect_lights`) and whether `--no-nee` was given; `of` leaves it off.
     pub nee: bool,
 }
 
