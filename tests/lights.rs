@@ -117,3 +117,23 @@ fn lights_are_picked_in_proportion_to_their_power() {
     }
     assert_eq!(cdf, 1.0);
 }
+
+/// scenes/lights.txt lists the lamp (a transformed sphere), the panel (a rotated square) and
+/// every triangle of the glowing knot.
+#[test]
+fn the_shipped_lights_scene_lists_all_its_emitters() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/lights.txt");
+    let scene = clpt::scene::Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let lights = PackedScene::new(&scene, u64::MAX)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .lights;
+    let count = |kind| lights.iter().filter(|l| l.kind == kind).count();
+    assert_eq!(
+        (
+            count(OBJECT_SPHERE),
+            count(OBJECT_PLANE),
+            count(OBJECT_MESH)
+        ),
+        (1, 1, 24576)
+    );
+}

@@ -923,3 +923,21 @@ fn mangled_tokens_are_handled() {
         parse_quietly(&text);
     }
 }
+
+/// Every scene shipped in scenes/ loads and packs: its textures decode, its meshes load and get
+/// their kd-trees, its light list builds.
+#[test]
+fn every_shipped_scene_loads_and_packs() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut count = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "txt") {
+            let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            clpt::device::upload::PackedScene::new(&scene, u64::MAX)
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            count += 1;
+        }
+    }
+    assert!(count >= 8, "{count} scenes in {}", dir.display());
+}

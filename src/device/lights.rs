@@ -70,8 +70,8 @@ pub fn collect_lights(scene: &LightSources) -> Vec<Light> {
         if p.normal.iter().filter(|&&c| c != 0.0).count() != 1 {
             continue; // tilted: its visible part is a polygon
         }
-        // The square n offset + [-range, range] along the two other axes (nee.h's old choice
-        // of axes; any pair spans the same square).
+        // The square n offset + [-range, range] along the two other axes: what the plane's
+        // range test (plane.h) keeps of it.
         let a = if n.x != 0.0 { DVec3::Y } else { DVec3::X };
         let b = if n.z != 0.0 { DVec3::Y } else { DVec3::Z };
         let range = f64::from(p.range);
