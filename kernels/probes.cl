@@ -84,6 +84,41 @@ __kernel void probe_material(__global const uint* type, __global const float* wo
     vstore3(weight, 2 * i + 1, out);
 }
 
+/* A ray spawned off the first hit of (o, d), into the side the ray came from, towards w given
+ * in the frame of that side's normal (z along it): input 9 floats (o, d, w); output 4 floats:
+ * dot(d, n) at the first hit, the spawned ray's hit kind, dot(w, n2) at its hit (n, n2 the
+ * geometric normals), and its t. A closed mesh seen from outside gives dot(w, n2) of the sign
+ * of dot(d, n) always: the other sign is a ray that got inside. */
+__kernel void probe_spawn(SCENE_KERNEL_ARGS, __global const float* rays, __global float* out) {
+    const Scene scene = SCENE_FROM_KERNEL_ARGS;
+    const uint i = get_global_id(0);
+    const float3 o = vload3(3 * i, rays);
+    const float3 d = vload3(3 * i + 1, rays);
+    const float3 wl = vload3(3 * i + 2, rays);
+    __global float* r = out + 4 * i;
+    const Hit hit = scene_intersect(&scene, o, d);
+    r[0] = 0.0f;
+    r[1] = (float)HIT_NONE;
+    r[2] = 0.0f;
+    r[3] = 0.0f;
+    if (hit.kind == HIT_NONE) {
+        return;
+    }
+    const Surface s = scene_surface(&scene, hit, o, d);
+    const float3 facing = dot(d, s.n) < 0.0f ? s.n : -s.n;
+    float3 t, b;
+    orthonormal_basis(facing, &t, &b);
+    const float3 w = normalize(t * wl.x + b * wl.y + facing * wl.z);
+    const float3 o2 = offset_ray_origin(s.p, s.p_error, s.n, w);
+    const Hit next = scene_intersect(&scene, o2, w);
+    r[0] = dot(d, s.n);
+    r[1] = (float)next.kind;
+    if (next.kind != HIT_NONE) {
+        r[2] = dot(w, scene_surface(&scene, next, o2, w).n);
+        r[3] = next.t;
+    }
+}
+
 /* The diffuse branch with a bent shading normal: input wo, n, ns and a direction w (12 floats)
  * and four uniforms; output the sampled wi and diffuse_pdf(w) for the side wo arrived on. */
 __kernel void probe_diffuse(__global const float* wo_n_ns_w, __global const float4* u,

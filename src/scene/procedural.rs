@@ -91,20 +91,37 @@ fn tube(
     rings: u32,
     sides: u32,
 ) -> TriangleMesh {
+    let h = 1e-4;
+    let ring_s = |i: u32| i as f64 / rings as f64;
+    let tangent = |s: f64| (center(s + h) - center(s - h)).normalize();
+    // A rotation-minimising frame (parallel transport: each ring's normal is the previous one
+    // turned by the least rotation that takes the previous tangent to this one), its twist
+    // after one turn spread evenly over the rings so the tube closes. A frame built from a
+    // fixed helper axis jumps where the tangent passes near that axis, and the quads between
+    // two such rings fold through each other: the first trefoil asset had such folds, through
+    // which paths got inside the tube.
+    let t0 = tangent(0.0);
+    let n0 = t0.any_orthonormal_vector();
+    let mut normals = Vec::with_capacity(rings as usize);
+    let mut n = n0;
+    let mut t_prev = t0;
+    for i in 0..=rings {
+        let t = tangent(ring_s(i % rings));
+        n = glam::DQuat::from_rotation_arc(t_prev, t) * n;
+        n = (n - t * n.dot(t)).normalize();
+        t_prev = t;
+        if i < rings {
+            normals.push(n);
+        }
+    }
+    // n is ring 0's normal carried once around: the twist is its angle from n0 about t0.
+    let twist = t0.dot(n0.cross(n)).atan2(n0.dot(n));
     let mut positions = Vec::with_capacity((rings * sides) as usize);
-    // A rotation-minimising frame would be smoother; a frame from the curve's tangent and a
-    // fixed helper axis is enough for closed test shapes that never run along that axis.
-    for i in 0..rings {
-        let s = i as f64 / rings as f64;
-        let h = 1e-4;
-        let tangent = (center(s + h) - center(s - h)).normalize();
-        let helper = if tangent.z.abs() < 0.9 {
-            DVec3::Z
-        } else {
-            DVec3::X
-        };
-        let n = tangent.cross(helper).normalize();
-        let b = tangent.cross(n);
+    for (i, &n_i) in normals.iter().enumerate() {
+        let s = ring_s(i as u32);
+        let t = tangent(s);
+        let n = glam::DQuat::from_axis_angle(t, -twist * s) * n_i;
+        let b = t.cross(n);
         for j in 0..sides {
             let a = std::f64::consts::TAU * j as f64 / sides as f64;
             positions.push(center(s) + (n * a.cos() + b * a.sin()) * tube);
