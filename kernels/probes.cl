@@ -39,17 +39,24 @@ __kernel void probe_camera(__global const RenderParams* params, __global const u
     vstore3(d, 2 * i + 1, out);
 }
 
+/* Ray i of a probe's input, 9 floats (o, d, w), and the nearest hit of (o, d). */
+inline Hit probe_first_hit(const Scene* sc, __global const float* rays, uint i, float3* o,
+                           float3* d, float3* w) {
+    *o = vload3(3 * i, rays);
+    *d = vload3(3 * i + 1, rays);
+    *w = vload3(3 * i + 2, rays);
+    return scene_intersect(sc, *o, *d);
+}
+
 /* Nearest hit of ray (o, d) and the ray spawned from it towards w: input 9 floats per ray
  * (o, d, w); output 16 floats: t, kind, index, p[3], n[3], p_error[3], then for the spawned
  * ray t2, kind2, index2, and the spawn origin's distance from p along n (signed). */
 __kernel void probe_hit(SCENE_KERNEL_ARGS, __global const float* rays, __global float* out) {
     const Scene scene = SCENE_FROM_KERNEL_ARGS;
     const uint i = get_global_id(0);
-    const float3 o = vload3(3 * i, rays);
-    const float3 d = vload3(3 * i + 1, rays);
-    const float3 w = vload3(3 * i + 2, rays);
+    float3 o, d, w;
+    const Hit hit = probe_first_hit(&scene, rays, i, &o, &d, &w);
     __global float* r = out + 16 * i;
-    const Hit hit = scene_intersect(&scene, o, d);
     r[0] = hit.t;
     r[1] = (float)hit.kind;
     r[2] = (float)hit.index;
@@ -92,11 +99,9 @@ __kernel void probe_material(__global const uint* type, __global const float* wo
 __kernel void probe_spawn(SCENE_KERNEL_ARGS, __global const float* rays, __global float* out) {
     const Scene scene = SCENE_FROM_KERNEL_ARGS;
     const uint i = get_global_id(0);
-    const float3 o = vload3(3 * i, rays);
-    const float3 d = vload3(3 * i + 1, rays);
-    const float3 wl = vload3(3 * i + 2, rays);
+    float3 o, d, wl;
+    const Hit hit = probe_first_hit(&scene, rays, i, &o, &d, &wl);
     __global float* r = out + 4 * i;
-    const Hit hit = scene_intersect(&scene, o, d);
     r[0] = 0.0f;
     r[1] = (float)HIT_NONE;
     r[2] = 0.0f;
