@@ -2,7 +2,7 @@
  * section 13.4).
  *
  * Reads: the light list (types.h `Light` entries the host chose and placed in world space,
- * upload.rs `collect_lights`: spheres, squares of planes and mesh triangles of constant
+ * src/device/lights.rs: spheres, squares of planes and mesh triangles of constant
  * emission) and their materials. Writes: nothing. Why: a small bright light is found by BSDF
  * sampling only rarely, so pure path tracing converges slowly on it (the original's report says
  * so of its light balls). At every diffuse vertex one light is picked in proportion to its power
@@ -34,11 +34,22 @@ inline bool light_before(__global const Light* l, uint kind, uint index, uint tr
     return l->triangle < triangle;
 }
 
+/* The light-list triangle of a hit: its triangle on a mesh, 0 elsewhere. */
+inline uint light_triangle_of(Hit hit) {
+    return hit.kind == HIT_MESH ? hit.prim : 0u;
+}
+
+/* Whether `hit` is on light l. */
+inline bool light_is_hit(__global const Light* l, Hit hit) {
+    return l->kind == light_kind_of(hit) && l->index == hit.index &&
+           l->triangle == light_triangle_of(hit);
+}
+
 /* The light-list entry of what `hit` hit, by binary search of the sorted list, or -1 when it is
  * not listed: the host's choice is the only rule. */
 inline int find_light(const Scene* sc, Hit hit) {
     const uint kind = light_kind_of(hit);
-    const uint triangle = hit.kind == HIT_MESH ? hit.prim : 0u;
+    const uint triangle = light_triangle_of(hit);
     uint lo = 0u, hi = sc->params->num_lights;
     while (lo < hi) {
         const uint mid = (lo + hi) / 2u;
@@ -48,13 +59,7 @@ inline int find_light(const Scene* sc, Hit hit) {
             hi = mid;
         }
     }
-    if (lo < sc->params->num_lights) {
-        __global const Light* l = &sc->lights[lo];
-        if (l->kind == kind && l->index == hit.index && l->triangle == triangle) {
-            return (int)lo;
-        }
-    }
-    return -1;
+    return lo < sc->params->num_lights && light_is_hit(&sc->lights[lo], hit) ? (int)lo : -1;
 }
 
 /* The entry a uniform u picks: the first whose cdf exceeds u (entries of prob 0 are never
@@ -167,8 +172,7 @@ inline float3 sample_light(const Scene* sc, Surface s, float3 facing, float3 fac
     }
     const float3 o = offset_ray_origin(s.p, s.p_error, s.n, wi);
     const Hit h = scene_intersect(sc, o, wi);
-    const uint triangle = h.kind == HIT_MESH ? h.prim : 0u;
-    if (light_kind_of(h) != l->kind || h.index != l->index || triangle != l->triangle) {
+    if (!light_is_hit(l, h)) {
         return (float3)(0.0f); /* blocked */
     }
     const float3 le = vload3(0, sc->materials[l->material].emission);

@@ -173,7 +173,7 @@ typedef struct ObjectRef {
 CLPT_ASSERT_SIZE(ObjectRef, 8);
 
 /* An emitter of the light list that next-event estimation samples (nee.h), in world space
- * (the host applied its object's transform: upload.rs `collect_lights`). Entries are sorted by
+ * (the host applied its object's transform: src/device/lights.rs). Entries are sorted by
  * (kind, index, triangle), so that a hit finds its entry by binary search, and `cdf` rises along
  * them, so that a uniform number picks an entry with probability `prob`. */
 typedef struct Light {

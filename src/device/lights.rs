@@ -18,6 +18,7 @@
 //! samples in proportion to what they light (pbrt-v4's `PowerLightSampler`).
 
 use super::layout::{self, Light, Material, MeshDesc, Transform};
+use super::upload::f32x3;
 use glam::{DMat3, DVec3};
 use std::f64::consts::PI;
 
@@ -183,10 +184,6 @@ fn constant_emission(materials: &[Material], material: u32) -> Option<f64> {
 
 fn dvec(v: [f32; 3]) -> DVec3 {
     DVec3::from(v.map(f64::from))
-}
-
-fn f32x3(v: DVec3) -> [f32; 3] {
-    v.as_vec3().to_array()
 }
 
 /// An object's transform as the device applies it (its f32 rows, computed in f64).

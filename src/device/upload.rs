@@ -65,7 +65,7 @@ pub struct PackedScene {
     pub object_boxes: Vec<Aabb>,
 }
 
-fn f32x3(v: DVec3) -> [f32; 3] {
+pub(super) fn f32x3(v: DVec3) -> [f32; 3] {
     v.as_vec3().to_array()
 }
 

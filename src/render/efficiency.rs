@@ -11,6 +11,7 @@
 
 use super::PassReport;
 use super::metrics::Metrics;
+use super::report::CSV_HEADER;
 use crate::error::{Error, Result};
 use std::path::Path;
 
@@ -88,6 +89,7 @@ pub fn read_report(path: &Path) -> Result<Vec<PassReport>> {
     let bad = |line: usize, what: &str| {
         Error::Invalid(format!("{}:{}: {what}", path.display(), line + 1))
     };
+    let columns = CSV_HEADER.split(',').count();
     let mut lines = text.lines().enumerate();
     match lines.next() {
         Some((_, header)) if header.starts_with("pass,seconds,spp,") => {}
@@ -97,8 +99,8 @@ pub fn read_report(path: &Path) -> Result<Vec<PassReport>> {
         .filter(|(_, l)| !l.trim().is_empty())
         .map(|(n, line)| {
             let fields: Vec<&str> = line.split(',').collect();
-            if fields.len() != 9 {
-                return Err(bad(n, "expected 9 fields"));
+            if fields.len() != columns {
+                return Err(bad(n, &format!("expected {columns} fields")));
             }
             let num = |i: usize| -> Result<f64> {
                 fields[i]

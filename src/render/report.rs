@@ -9,6 +9,10 @@ use crate::error::{Error, Result};
 use std::fmt::Write as _;
 use std::path::Path;
 
+/// The first line of a CSV report; efficiency.rs reads the rows back by these columns.
+pub const CSV_HEADER: &str =
+    "pass,seconds,spp,spp_per_second,rmse_estimate,relmse_estimate,rmse,relmse,mae";
+
 /// Writes `rows` as CSV or JSON, by the extension of `path`.
 pub fn write_report(path: &Path, rows: &[PassReport]) -> Result<()> {
     let measured = |r: &PassReport, f: fn(&super::Metrics) -> f64| {
@@ -16,9 +20,7 @@ pub fn write_report(path: &Path, rows: &[PassReport]) -> Result<()> {
     };
     let text = match extension(path).as_str() {
         "csv" => {
-            let mut out = String::from(
-                "pass,seconds,spp,spp_per_second,rmse_estimate,relmse_estimate,rmse,relmse,mae\n",
-            );
+            let mut out = format!("{CSV_HEADER}\n");
             for r in rows {
                 let _ = writeln!(
                     out,
