@@ -122,6 +122,28 @@ inline float emission_weight(const Scene* sc, Hit hit, Surface s, float3 p, floa
     return mis_weight(pdf_bsdf, light_pdf(&sc->lights[entry], p, d, length(s.p - p)));
 }
 
+/* Whether the segment from the surface s (left towards the sampled point q, of error bound
+ * q_error) to q is free of any surface: a shadow ray to a point (pbrt-v4's SpawnRayTo). The
+ * ray leaves the spawned origin towards q itself, not along the direction sampled from s.p, and
+ * its far end is pulled in by twice q's error bound projected on the ray (once for where q
+ * truly lies, once for where the light's own intersection routine puts it) and by the rounding
+ * of the distance, so the light itself never counts as a blocker. Whatever else lies on the
+ * segment blocks it: a neighbouring triangle of the same light that q rounded onto does not. */
+inline bool segment_unblocked(const Scene* sc, Surface s, float3 q, float3 q_error, float3 wi) {
+    const float3 o = offset_ray_origin(s.p, s.p_error, s.n, wi);
+    const float3 to = q - o;
+    const float dist = length(to);
+    if (!(dist > 0.0f)) {
+        return true; /* q at the spawned origin: nothing fits between */
+    }
+    const float3 d = to / dist;
+    const float t_max = dist - 2.0f * dot(fabs(d), q_error) - error_gamma(4.0f) * dist;
+    if (!(t_max > 0.0f)) {
+        return true; /* within rounding of the surface: nothing fits between */
+    }
+    return scene_intersect_until(sc, o, d, t_max).kind == HIT_NONE;
+}
+
 /* One light sample from the diffuse surface s (albedo `color`, shading and geometric normals
  * facing the arriving path `facing` and `facing_g`): its MIS-weighted contribution
  * f cos Le w / pdf, or 0. */
@@ -129,11 +151,12 @@ inline float3 sample_light(const Scene* sc, Surface s, float3 facing, float3 fac
                            float3 color, float4 u) {
     const uint pick = pick_light(sc, u.x);
     __global const Light* l = &sc->lights[pick];
-    float3 wi;
+    float3 wi, q, q_error;
     float pdf;
     if (l->kind == OBJECT_SPHERE) {
         const float3 c = vload3(0, l->corner);
-        const float d2 = dot(c - s.p, c - s.p);
+        const float3 pc = c - s.p;
+        const float d2 = dot(pc, pc);
         const float r2 = l->radius * l->radius;
         if (d2 <= r2) {
             return (float3)(0.0f);
@@ -143,11 +166,20 @@ inline float3 sample_light(const Scene* sc, Surface s, float3 facing, float3 fac
         const float cos_t = 1.0f - v;
         const float sin_t = sqrt(fmax(0.0f, v * (2.0f - v)));
         const float phi = 2.0f * M_PI_F * u.z;
-        const float3 w = (c - s.p) / sqrt(d2);
+        const float3 w = pc / sqrt(d2);
         float3 t, b;
         orthonormal_basis(w, &t, &b);
         wi = normalize(t * (sin_t * cos(phi)) + b * (sin_t * sin(phi)) + w * cos_t);
         pdf = l->prob / (2.0f * M_PI_F * one_minus);
+        /* The nearer point where wi meets the sphere, from the centre's distance to the ray
+         * (no cancellation for tiny spheres far away); a direction that rounding put just past
+         * the rim takes the tangent point. */
+        const float along = dot(pc, wi);
+        const float3 perp = pc - along * wi;
+        const float t_hit = along - sqrt(fmax(0.0f, r2 - dot(perp, perp)));
+        const float3 n = normalize(s.p + wi * t_hit - c);
+        q = c + n * l->radius;
+        q_error = error_gamma(6.0f) * (fabs(c) + fabs(n * l->radius));
     } else {
         /* Uniform over the square, or over the triangle by folding the square's far half onto
          * it (pbrt-v4 section A.5.5 samples triangles otherwise; this is equally uniform). */
@@ -156,7 +188,12 @@ inline float3 sample_light(const Scene* sc, Surface s, float3 facing, float3 fac
             a = 1.0f - a;
             b = 1.0f - b;
         }
-        const float3 q = vload3(0, l->corner) + vload3(0, l->edge1) * a + vload3(0, l->edge2) * b;
+        const float3 corner = vload3(0, l->corner);
+        const float3 e1 = vload3(0, l->edge1) * a, e2 = vload3(0, l->edge2) * b;
+        q = corner + e1 + e2;
+        /* Rounding of the sum, and of the list's corner and edges against the geometry the
+         * intersection routines see (both rounded to f32 from the same f64 values). */
+        q_error = error_gamma(6.0f) * (fabs(corner) + fabs(e1) + fabs(e2));
         const float3 to = q - s.p;
         const float dist2 = dot(to, to);
         wi = to / sqrt(dist2);
@@ -170,10 +207,8 @@ inline float3 sample_light(const Scene* sc, Surface s, float3 facing, float3 fac
     if (!(pdf_bsdf > 0.0f && pdf > 0.0f && isfinite(pdf))) {
         return (float3)(0.0f);
     }
-    const float3 o = offset_ray_origin(s.p, s.p_error, s.n, wi);
-    const Hit h = scene_intersect(sc, o, wi);
-    if (!light_is_hit(l, h)) {
-        return (float3)(0.0f); /* blocked */
+    if (!segment_unblocked(sc, s, q, q_error, wi)) {
+        return (float3)(0.0f);
     }
     const float3 le = vload3(0, sc->materials[l->material].emission);
     return color * le * (pdf_bsdf * mis_weight(pdf, pdf_bsdf) / pdf);

@@ -255,9 +255,10 @@ inline void object_intersect(const Scene* sc, ObjectRef ref, float3 o, float3 d,
 #include "bvh.h"
 #endif
 
-inline Hit scene_intersect(const Scene* sc, float3 o, float3 d) {
+/* The nearest hit of the ray o + t d with t < t_max, or kind HIT_NONE. */
+inline Hit scene_intersect_until(const Scene* sc, float3 o, float3 d, float t_max) {
     Hit hit;
-    hit.t = INFINITY;
+    hit.t = t_max;
     hit.kind = HIT_NONE;
     hit.index = 0u;
     hit.prim = 0u;
@@ -289,6 +290,11 @@ inline Hit scene_intersect(const Scene* sc, float3 o, float3 d) {
 #endif
 #endif
     return hit;
+}
+
+/* The nearest hit of the ray o + t d, t > 0. */
+inline Hit scene_intersect(const Scene* sc, float3 o, float3 d) {
+    return scene_intersect_until(sc, o, d, INFINITY);
 }
 
 /* A mesh hit's surface in the mesh's space: p = b0 v0 + b1 v1 + b2 v2 with pbrt-v4's bound

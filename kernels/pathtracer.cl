@@ -123,14 +123,24 @@ inline float3 trace_path(const Scene* sc, uint px, uint py, uint sample) {
         }
 #endif
 
-        /* Russian roulette on the throughput (pbrt-v4 section 14.1.5): unbiased, and it ends
-         * zero-throughput paths (black surfaces, emitters of colour 0) at once. Survival is
-         * capped at 0.95, as Mitsuba 3 does, so even a closed room of albedo 1 (the original's
-         * untextured defaults) ends paths after 20 bounces on average; the 1/survive weight
-         * keeps the estimate unbiased. */
-        const float survive = fmin(RR_MAX_SURVIVAL, max_component(throughput));
-        if (depth + 1u >= params->rr_depth || survive <= 0.0f) {
-            if (u.w >= survive) {
+        /* Russian roulette as the lower edge of a weight window (Vorba and Krivanek 2016,
+         * "Adjoint-driven Russian roulette and splitting", without the splitting): from bounce
+         * rr_depth on, a path whose largest throughput component m is below rr_threshold
+         * survives with probability m / rr_threshold and then carries rr_threshold, so no
+         * survivor's weight grows past the window. rr_threshold 1 is pbrt-v4's throughput
+         * roulette (section 14.1.5); lower thresholds let bright paths run on (the host picks
+         * it by measured efficiency, render/strategy.rs). Survival is capped at 0.95, as
+         * Mitsuba 3 does, so every path past rr_depth ends with probability >= 0.05 a bounce:
+         * even a closed room of albedo 1 (the original's untextured defaults) has paths of at
+         * most rr_depth + 20 bounces on average. A zero (or non-finite) throughput ends the
+         * path at once. The 1/survive weight keeps the estimate unbiased. */
+        const float m = max_component(throughput);
+        if (!(m > 0.0f)) {
+            break;
+        }
+        if (depth + 1u >= params->rr_depth) {
+            const float survive = fmin(RR_MAX_SURVIVAL, m / params->rr_threshold);
+            if (!(u.w < survive)) {
                 break;
             }
             throughput /= survive;
@@ -141,29 +151,39 @@ inline float3 trace_path(const Scene* sc, uint px, uint py, uint sample) {
     return radiance;
 }
 
-/* Accumulates sample_count samples from sample_start into every pixel of rows
- * [row_start, row_start + row_count): the sums of radiance and of its squares, and apart the sum
- * of the samples of odd-numbered groups of four, so that the even and odd halves give two
- * independent estimates of each pixel whose difference measures the error (error_rows). Groups
- * of four, not single samples: sample i goes to sub-pixel i mod 4, and halves split by sample
- * parity would see different sub-pixels, their difference the image's gradient across the
- * pixel rather than noise. */
+/* Accumulates sample_count samples from sample_start into every pixel of rows row_start,
+ * row_start + row_step, ... (row_count of them; row_step > 1 only for the strategy trial of
+ * render/strategy.rs): the sums of radiance and of its squares, and apart the sum of the
+ * samples of odd-numbered groups of four, so that the even and odd halves give two independent
+ * estimates of each pixel whose difference measures the error (error_rows). Groups of four, not
+ * single samples: sample i goes to sub-pixel i mod 4, and halves split by sample parity would
+ * see different sub-pixels, their difference the image's gradient across the pixel rather than
+ * noise. A sample that is not finite (an overflow, a NaN from a scene or a kernel fault) is
+ * never added: it counts as 0, and the pixel's `bad` count and first bad sample index record it,
+ * so the host can warn and name it. */
 __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum,
-                          __global float4* sum_sq, __global float4* sum_odd, uint sample_start,
-                          uint sample_count, uint row_start, uint row_count) {
+                          __global float4* sum_sq, __global float4* sum_odd,
+                          __global uint* bad, __global uint* bad_first, uint sample_start,
+                          uint sample_count, uint row_start, uint row_count, uint row_step) {
     const Scene scene = SCENE_FROM_KERNEL_ARGS;
     const uint px = get_global_id(0);
     if (px >= params->camera.width || get_global_id(1) >= row_count) {
         return; /* padding of the global size to whole work-groups */
     }
-    const uint py = row_start + get_global_id(1);
+    const uint py = row_start + get_global_id(1) * row_step;
     const uint pixel = py * params->camera.width + px;
     float4 acc = sum[pixel];
     float4 acc_sq = sum_sq[pixel];
     float4 acc_odd = sum_odd[pixel];
+    uint bad_count = 0u, first = 0xffffffffu;
     for (uint i = 0u; i < sample_count; ++i) {
         const uint sample = sample_start + i;
         const float3 l = trace_path(&scene, px, py, sample);
+        if (!(isfinite(l.x) && isfinite(l.y) && isfinite(l.z))) {
+            first = bad_count == 0u ? sample : first;
+            ++bad_count;
+            continue;
+        }
         acc += (float4)(l, 0.0f);
         acc_sq += (float4)(l * l, 0.0f);
         if ((sample >> 2) & 1u) {
@@ -173,6 +193,10 @@ __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum,
     sum[pixel] = acc;
     sum_sq[pixel] = acc_sq;
     sum_odd[pixel] = acc_odd;
+    if (bad_count > 0u) {
+        bad_first[pixel] = bad[pixel] == 0u ? first : bad_first[pixel];
+        bad[pixel] += bad_count;
+    }
 }
 
 /* Error sums of one image row after `spp` samples, for the per-pass report (render/mod.rs).

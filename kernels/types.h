@@ -208,7 +208,9 @@ typedef struct RenderParams {
     uint rr_depth;         /* Russian roulette starts at this depth */
     uint texture_filter;   /* FILTER_* */
     uint num_lights;       /* Light entries of the light list (next-event estimation) */
+    float rr_threshold;    /* roulette's weight window: paths whose largest throughput
+                            * component is below it play roulette (pathtracer.cl) */
 } RenderParams;
-CLPT_ASSERT_SIZE(RenderParams, 140);
+CLPT_ASSERT_SIZE(RenderParams, 144);
 
 #endif

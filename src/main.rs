@@ -8,6 +8,7 @@ use clpt::render::bench::{BenchResult, bench_scene};
 use clpt::render::metrics::{self, LinearImage};
 use clpt::render::{
     ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter, efficiency, report,
+    strategy::{LightSampling, Roulette},
 };
 use clpt::scene::{Scene, builtin};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -124,6 +125,15 @@ struct SamplingArgs {
     /// Bounce from which Russian roulette may end a path.
     #[arg(long, default_value_t = 3)]
     rr_depth: u32,
+    /// Roulette's threshold: paths whose largest throughput component is below T play
+    /// roulette, survivors carry T; auto: 1 or 0.3, whichever a short trial finds reaches a
+    /// given error sooner.
+    #[arg(long, value_name = "auto|T", default_value = "auto")]
+    rr_threshold: Roulette,
+    /// Light sampling (next-event estimation with MIS): on, off (pure path tracing, as the
+    /// original), or auto: whichever a short trial finds reaches a given error sooner.
+    #[arg(long, value_name = "auto|on|off", default_value = "auto")]
+    light_sampling: LightSampling,
     /// Texture lookups: bilinear, or nearest (the original's).
     #[arg(long, default_value = "bilinear")]
     texture_filter: TextureFilter,
@@ -133,8 +143,8 @@ struct SamplingArgs {
     /// Object BVH: auto (from 32 objects on), on, or off (test every object in turn).
     #[arg(long, default_value = "auto")]
     object_bvh: ObjectBvh,
-    /// No light sampling: pure path tracing, as the original.
-    #[arg(long)]
+    /// The same as --light-sampling off.
+    #[arg(long, conflicts_with = "light_sampling")]
     no_nee: bool,
 }
 
@@ -269,7 +279,12 @@ fn options(
         texture_filter: sampling.texture_filter,
         max_texture_pixels: sampling.max_texture_pixels,
         object_bvh: sampling.object_bvh,
-        nee: !sampling.no_nee,
+        light_sampling: if sampling.no_nee {
+            LightSampling::Off
+        } else {
+            sampling.light_sampling
+        },
+        roulette: sampling.rr_threshold,
         all_features: program.all_features,
         cache_dir: program.cache_dir(),
         ..RenderOptions::default()
@@ -309,27 +324,53 @@ fn render(args: &RenderArgs) -> Result<()> {
     }
     let mut renderer = Renderer::new(&device, &scene, &sources, options.clone())?;
     if let Some(path) = &args.dump_kernel {
-        std::fs::write(path, &renderer.program.source.text)
-            .with_context(|| format!("writing the program source to {}", path.display()))?;
+        // The first program (with light sampling when that is a candidate); a second one
+        // beside it, named FILE.no-nee, when the trial may choose either.
+        for (i, e) in renderer.estimators().iter().enumerate() {
+            let file = if i == 0 {
+                path.clone()
+            } else {
+                let mut name = path.clone().into_os_string();
+                name.push(".no-nee");
+                PathBuf::from(name)
+            };
+            std::fs::write(&file, &e.program.source.text)
+                .with_context(|| format!("writing the program source to {}", file.display()))?;
+        }
     }
     if args.verbose {
-        eprintln!("features: {}", renderer.features);
-        let program = &renderer.program;
-        let seconds = program.build_time.as_secs_f64();
-        let origin = match &program.cache {
-            CacheUse::Off => format!("built in {seconds:.2} s (no program cache)"),
-            CacheUse::Hit(path) => {
-                format!(
-                    "loaded from the cache in {seconds:.2} s ({})",
-                    path.display()
-                )
-            }
-            CacheUse::Stored(path) => {
-                format!("built in {seconds:.2} s, cached as {}", path.display())
-            }
-            CacheUse::NotStored(why) => format!("built in {seconds:.2} s, not cached: {why}"),
-        };
-        eprintln!("program: {origin}, options `{}`", program.options);
+        for e in renderer.estimators() {
+            let program = &e.program;
+            let seconds = program.build_time.as_secs_f64();
+            let origin = match &program.cache {
+                CacheUse::Off => format!("built in {seconds:.2} s (no program cache)"),
+                CacheUse::Hit(path) => {
+                    format!(
+                        "loaded from the cache in {seconds:.2} s ({})",
+                        path.display()
+                    )
+                }
+                CacheUse::Stored(path) => {
+                    format!("built in {seconds:.2} s, cached as {}", path.display())
+                }
+                CacheUse::NotStored(why) => {
+                    format!("built in {seconds:.2} s, not cached: {why}")
+                }
+            };
+            let which = if e.light_sampling {
+                "with light sampling"
+            } else {
+                "without light sampling"
+            };
+            eprintln!("features ({which}): {}", e.features);
+            eprintln!("program ({which}): {origin}, options `{}`", program.options);
+        }
+        let candidates: Vec<String> = renderer
+            .candidates()
+            .iter()
+            .map(|c| c.to_string())
+            .collect();
+        eprintln!("estimators tried: {}", candidates.join("; "));
         eprintln!(
             "scene: {} ({}x{}), {} materials, {} spheres, {} planes, {} mesh instances, {} transforms",
             scene.source,
@@ -365,15 +406,18 @@ fn render(args: &RenderArgs) -> Result<()> {
         let error = p.estimate.map_or(String::new(), |e| {
             format!(", est. RMSE {:.2e}, relMSE {:.2e}", e.rmse, e.relmse)
         });
+        let s = p.strategy;
         bar.set_message(format!(
-            "{spp_per_second:.1} spp/s, {:.2} Mpaths/s{error}",
-            p.paths_per_second / 1e6
+            "{spp_per_second:.1} spp/s, {:.2} Mpaths/s{error} [light sampling {}, rr < {}]",
+            p.paths_per_second / 1e6,
+            if s.light_sampling { "on" } else { "off" },
+            s.rr_threshold
         ));
     })?;
     bar.finish_and_clear();
     film.write(&output)?;
     if let Some(path) = &args.report {
-        report::write_report(path, &stats.report)?;
+        report::write_report(path, &stats.report, &stats.choice)?;
     }
     if let Some(path) = &args.plot {
         report::write_plot(
@@ -381,6 +425,24 @@ fn render(args: &RenderArgs) -> Result<()> {
             &stats.report,
             &format!("{} on {}", scene.source, device.description.name),
         )?;
+    }
+    eprintln!("estimator: {}", stats.choice);
+    if args.verbose && stats.choice.was_measured() {
+        for line in stats.choice.trial_lines() {
+            eprintln!("  trial: {line}");
+        }
+    }
+    if stats.nonfinite.count > 0 {
+        let first = stats
+            .nonfinite
+            .first
+            .map_or(String::new(), |(x, y, sample)| {
+                format!("; the first at pixel ({x}, {y}) from the top left, sample {sample}")
+            });
+        eprintln!(
+            "warning: {} path samples were infinite or NaN and were left out of the image (counted as 0){first}",
+            stats.nonfinite.count
+        );
     }
     if let Some(last) = stats.report.last() {
         let measured = last.measured.map_or(String::new(), |m| {

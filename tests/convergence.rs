@@ -22,6 +22,7 @@ mod common;
 
 use clpt::render::film::Film;
 use clpt::render::metrics::LinearImage;
+use clpt::render::strategy::LightSampling;
 use clpt::render::{PassReport, RenderOptions};
 use clpt::scene::Scene;
 use std::sync::Arc;
@@ -141,7 +142,11 @@ fn light_sampling_and_pure_path_tracing_agree() {
         let options = RenderOptions {
             spp: Some(spp),
             seed,
-            nee,
+            light_sampling: if nee {
+                LightSampling::On
+            } else {
+                LightSampling::Off
+            },
             ..RenderOptions::default()
         };
         common::render(scene, options).0
@@ -189,7 +194,11 @@ fn target_error_stops_when_the_error_is_reached() {
             spp: None,
             time_limit: Some(std::time::Duration::from_secs_f64(seconds)),
             seed: 3,
-            nee,
+            light_sampling: if nee {
+                LightSampling::On
+            } else {
+                LightSampling::Off
+            },
             target_error: Some(target),
             reference: Some(reference.clone()),
             ..RenderOptions::default()

@@ -941,3 +941,43 @@ fn every_shipped_scene_loads_and_packs() {
     }
     assert!(count >= 8, "{count} scenes in {}", dir.display());
 }
+
+/// A colour above 1 would make energy (a closed room of colour 2 gave NaN pixels): it is
+/// clamped into [0, 1] with a warning at its `color`, and an ordinary colour passes silently.
+#[test]
+fn colours_outside_zero_to_one_are_clamped_with_a_warning() {
+    let text = "PerspectiveCamera { center 0 0 0 direction 0 0 -1 angle 30 width 4 height 3 }\n\
+                Materials { numMaterials 3\n\
+                Material { color 100 0.5 -0.25 }\n\
+                Material { color 1 1 1 }\n\
+                Material { emission 50 50 50 color 2 2 2 } }\n\
+                Group { numObjects 1 Sphere { center 0 0 -5 radius 1 } }";
+    let scene = parse_scene(text, "gain").unwrap();
+    let m = &scene.materials;
+    assert_eq!(m[0].color, DVec3::new(1.0, 0.5, 0.0));
+    assert_eq!(m[1].color, DVec3::ONE);
+    assert_eq!(m[2].color, DVec3::ONE);
+    assert_eq!(m[2].emission, DVec3::splat(50.0));
+    let warnings: Vec<(usize, usize, &str)> = scene
+        .warnings
+        .iter()
+        .map(|w| (w.location.line, w.location.column, w.message.as_str()))
+        .collect();
+    assert_eq!(
+        warnings,
+        [
+            (
+                3,
+                12,
+                "`color 100 0.5 -0.25` is outside [0, 1] (a surface cannot reflect more light \
+                 than it receives, nor less than none): clamped to 1 0.5 0"
+            ),
+            (
+                5,
+                30,
+                "`color 2 2 2` is outside [0, 1] (a surface cannot reflect more light than it \
+                 receives, nor less than none): clamped to 1 1 1"
+            ),
+        ]
+    );
+}

@@ -8,6 +8,7 @@ mod common;
 
 use clpt::render::RenderOptions;
 use clpt::render::film::Film;
+use clpt::render::strategy::Roulette;
 use clpt::scene::Scene;
 use clpt::scene::parse::parse_scene;
 use glam::DVec3;
@@ -52,6 +53,10 @@ fn all_pixels(film: &Film) -> Vec<(u32, u32)> {
 }
 
 fn furnace(camera: &str, emission: [f64; 3], albedo: [f64; 3]) {
+    furnace_with(camera, emission, albedo, options(64, 11));
+}
+
+fn furnace_with(camera: &str, emission: [f64; 3], albedo: [f64; 3], options: RenderOptions) {
     let text = format!(
         "PerspectiveCamera {{ {camera} width 32 height 32 }}\n\
          Materials {{ numMaterials 1 Material {{ emission {} {} {} color {} {} {} }} }}\n\
@@ -59,7 +64,7 @@ fn furnace(camera: &str, emission: [f64; 3], albedo: [f64; 3]) {
         emission[0], emission[1], emission[2], albedo[0], albedo[1], albedo[2]
     );
     let scene = parse_scene(&text, "furnace").unwrap();
-    let film = render(&scene, options(64, 11));
+    let film = render(&scene, options);
     let (mean, se) = region_mean(&film, &all_pixels(&film));
     for c in 0..3 {
         let expected = emission[c] / (1.0 - albedo[c]);
@@ -88,6 +93,87 @@ fn furnace_pinhole_camera() {
         [0.3, 0.3, 0.3],
         [0.2, 0.5, 0.9],
     );
+}
+
+/// Roulette below a threshold of 0.3 (paths run on until their weight has fallen below it),
+/// and from the first bounce, is as unbiased as pbrt's rule.
+#[test]
+fn furnace_with_the_weight_window_roulette() {
+    for rr_depth in [1, 3] {
+        furnace_with(
+            "center 0 0 0 direction 0 0 -1 angle 60",
+            [0.3, 0.2, 0.1],
+            [0.2, 0.6, 0.95],
+            RenderOptions {
+                rr_depth,
+                roulette: Roulette::Threshold(0.3),
+                ..options(64, 12)
+            },
+        );
+    }
+}
+
+/// In a closed sphere of albedo 1 emitting 1 everywhere, every vertex adds 1 in expectation,
+/// whatever roulette does: with the safety cap at `max_depth` bounces a sample's expectation is
+/// exactly max_depth. Paths still end (survival is capped at 0.95 past rr_depth: at most
+/// rr_depth + 20 bounces on average), and roulette's 1/survival weights make up the rest; a
+/// rule that forgot the weight, or ended paths early without it, would fall short.
+#[test]
+fn roulette_is_unbiased_where_nothing_absorbs() {
+    for threshold in [1.0, 0.3] {
+        let text = "PerspectiveCamera { center 0 0 0 direction 0 0 -1 angle 60 width 16 height 16 }\n\
+                    Materials { numMaterials 1 Material { emission 1 1 1 color 1 1 1 } }\n\
+                    Group { numObjects 1 Sphere { center 0 0 0 radius 10 } }\n";
+        let scene = parse_scene(text, "albedo 1").unwrap();
+        let film = render(
+            &scene,
+            RenderOptions {
+                max_depth: 40,
+                roulette: Roulette::Threshold(threshold),
+                ..options(256, 13)
+            },
+        );
+        let (mean, se) = region_mean(&film, &all_pixels(&film));
+        for c in 0..3 {
+            let z = (mean[c] - 40.0) / se[c];
+            eprintln!(
+                "threshold {threshold} channel {c}: {:.3} +- {:.3}",
+                mean[c], se[c]
+            );
+            assert!(se[c] < 0.5, "too noisy to test");
+            assert!(z.abs() < Z_LIMIT, "threshold {threshold}: z = {z:.2}");
+        }
+    }
+}
+
+/// A sample that is not finite (here from an emitter of infinite emission, which only a
+/// program, not the parser, can make) is left out of the image and counted, never added: the
+/// pixels it touched stay finite and the render names the first such sample.
+#[test]
+fn non_finite_samples_are_counted_not_added() {
+    let text = "PerspectiveCamera { center 0 0 0 direction 0 0 -1 angle 60 width 16 height 16 }\n\
+                Materials { numMaterials 2 Material { emission 0.5 0.5 0.5 color 0.5 0.5 0.5 } \
+                  Material { color 0 0 0 } }\n\
+                Group { numObjects 2 MaterialIndex 0 Sphere { center 0 0 0 radius 10 } \
+                  MaterialIndex 1 Sphere { center 3 0 -9 radius 1.5 } }\n";
+    let mut scene = parse_scene(text, "infinite emitter").unwrap();
+    scene.materials[1].emission = DVec3::INFINITY;
+    let (film, stats) = common::render(&scene, options(16, 14));
+    eprintln!("{:?}", stats.nonfinite);
+    assert!(
+        stats.nonfinite.count > 0,
+        "the scene made no non-finite sample to test"
+    );
+    let (x, y, sample) = stats.nonfinite.first.expect("the first non-finite sample");
+    assert!(x < 16 && y < 16 && sample < 16);
+    for y in 0..film.height {
+        for x in 0..film.width {
+            assert!(
+                film.mean(x, y).iter().all(|v| v.is_finite()),
+                "pixel ({x}, {y})"
+            );
+        }
+    }
 }
 
 #[test]

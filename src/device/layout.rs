@@ -296,8 +296,10 @@ pub struct RenderParams {
     pub rr_depth: u32,
     pub texture_filter: u32,
     pub num_lights: u32,
+    /// Roulette's threshold: paths whose largest throughput component is below it play.
+    pub rr_threshold: f32,
 }
-const _: () = assert!(size_of::<RenderParams>() == 140);
+const _: () = assert!(size_of::<RenderParams>() == 144);
 
 /// One struct's layout as Rust sees it: its C name, size, and (field name, offset) pairs.
 pub struct StructLayout {
@@ -370,6 +372,7 @@ pub const LAYOUT: &[StructLayout] = &[
         num_bvh_nodes => "num_bvh_nodes",
         seed_lo => "seed_lo", seed_hi => "seed_hi", max_depth => "max_depth",
         rr_depth => "rr_depth", texture_filter => "texture_filter", num_lights => "num_lights",
+        rr_threshold => "rr_threshold",
     }),
 ];
 

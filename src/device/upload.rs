@@ -402,6 +402,7 @@ impl PackedScene {
             rr_depth,
             texture_filter,
             num_lights: self.lights.len() as u32,
+            rr_threshold: 1.0,
         }
     }
 

@@ -18,7 +18,9 @@ pub struct BenchResult {
     pub spp: u32,
     /// "scene" for the program specialised to the scene, "all" for the all-features one.
     pub program: &'static str,
-    /// The first build of the program in this process (cold unless the driver cached it).
+    /// The estimator the render ran (chosen by the strategy trial unless fixed).
+    pub strategy: String,
+    /// The first build of the program(s) in this process (cold unless the driver cached it).
     pub build_seconds: f64,
     /// Setting up a render (scene packing and upload, program from clpt's cache).
     pub warm_start_seconds: f64,
@@ -29,13 +31,14 @@ pub struct BenchResult {
 }
 
 impl BenchResult {
-    pub const MARKDOWN_HEADER: &'static str = "| scene | program | size | spp | first build s | warm start s | render s | samples/s (spp/s) | Mpaths/s |\n|---|---|---|---|---|---|---|---|---|";
+    pub const MARKDOWN_HEADER: &'static str = "| scene | program | estimator | size | spp | first build s | warm start s | render s | samples/s (spp/s) | Mpaths/s |\n|---|---|---|---|---|---|---|---|---|---|";
 
     pub fn markdown_row(&self) -> String {
         format!(
-            "| {} | {} | {}x{} | {} | {:.2} | {:.3} | {:.3} | {:.2} | {:.2} |",
+            "| {} | {} | {} | {}x{} | {} | {:.2} | {:.3} | {:.3} | {:.2} | {:.2} |",
             self.name,
             self.program,
+            self.strategy,
             self.width,
             self.height,
             self.spp,
@@ -63,7 +66,11 @@ pub fn bench_scene(
     };
     let program = if options.all_features { "all" } else { "scene" };
     let mut renderer = Renderer::new(device, scene, sources, uncached.clone())?;
-    let build_seconds = renderer.program.build_time.as_secs_f64();
+    let build_seconds: f64 = renderer
+        .estimators()
+        .iter()
+        .map(|e| e.program.build_time.as_secs_f64())
+        .sum();
     renderer.warm_up()?;
     let (film, stats) = renderer.render(&mut |_| {})?;
     drop(renderer);
@@ -85,6 +92,7 @@ pub fn bench_scene(
         height: film.height,
         spp: film.spp,
         program,
+        strategy: stats.choice.to_string(),
         build_seconds,
         warm_start_seconds,
         render_seconds,

@@ -90,7 +90,11 @@ pub fn read_report(path: &Path) -> Result<Vec<PassReport>> {
         Error::Invalid(format!("{}:{}: {what}", path.display(), line + 1))
     };
     let columns = CSV_HEADER.split(',').count();
-    let mut lines = text.lines().enumerate();
+    // `#` lines: the estimator and its trial, before the header.
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.starts_with('#'));
     match lines.next() {
         Some((_, header)) if header.starts_with("pass,seconds,spp,") => {}
         _ => return Err(bad(0, "not a clpt report (CSV, as --report writes it)")),
@@ -187,7 +191,29 @@ mod tests {
         let dir = std::env::temp_dir();
         let path = dir.join(format!("clpt-efficiency-{}.csv", std::process::id()));
         let rows = run(0.5, 1e-3).rows;
-        crate::render::report::write_report(&path, &rows).unwrap();
+        // A report of a render whose trial measured two strategies: its `#` lines are skipped.
+        let strategy = |light_sampling| crate::render::strategy::Strategy {
+            light_sampling,
+            rr_threshold: 1.0,
+        };
+        let measured = |light_sampling| crate::render::strategy::Measured {
+            strategy: strategy(light_sampling),
+            seconds_per_sample: 1e-6,
+            relative_variance: 0.5,
+            missed_rare_paths: false,
+        };
+        let choice = crate::render::strategy::Choice {
+            measured: vec![measured(true), measured(false)],
+            chosen: 1,
+            seconds: 0.25,
+            pixels: 100.0,
+        };
+        crate::render::report::write_report(&path, &rows, &choice).unwrap();
+        assert!(
+            std::fs::read_to_string(&path)
+                .unwrap()
+                .starts_with("# estimator: ")
+        );
         let back = read_report(&path).unwrap();
         assert_eq!(back.len(), rows.len());
         for (a, b) in back.iter().zip(&rows) {

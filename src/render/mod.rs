@@ -14,6 +14,7 @@ pub mod features;
 pub mod film;
 pub mod metrics;
 pub mod report;
+pub mod strategy;
 
 use crate::device::Device;
 use crate::device::layout::{self, RenderParams};
@@ -25,6 +26,7 @@ use features::Features;
 use film::Film;
 use metrics::{LinearImage, Metrics};
 use std::time::{Duration, Instant};
+use strategy::{Choice, LightSampling, Roulette, Strategy, TrialFilm};
 
 /// Work-group edge: launches are padded to whole 8x8 groups.
 const GROUP: usize = 8;
@@ -101,6 +103,8 @@ pub struct RenderOptions {
     pub max_depth: u32,
     /// Russian roulette applies from this bounce on.
     pub rr_depth: u32,
+    /// Roulette's threshold: fixed, or chosen by measured efficiency ([`strategy`]).
+    pub roulette: Roulette,
     /// Wanted duration of one kernel launch.
     pub launch_target: Duration,
     pub texture_filter: TextureFilter,
@@ -117,8 +121,9 @@ pub struct RenderOptions {
     /// Stop at the first pass whose estimated relMSE is at most this, once the estimate has
     /// settled ([`settled`]).
     pub target_error: Option<f64>,
-    /// Next-event estimation with MIS (kernels/nee.h); off: pure path tracing, the original's.
-    pub nee: bool,
+    /// Next-event estimation with MIS (kernels/nee.h): on, off (pure path tracing, the
+    /// original's), or chosen by measured efficiency ([`strategy`]).
+    pub light_sampling: LightSampling,
 }
 
 impl Default for RenderOptions {
@@ -129,6 +134,10 @@ impl Default for RenderOptions {
             seed: 0,
             max_depth: 65536,
             rr_depth: 3,
+            // The library renders one fixed estimator unless asked to choose, so that two
+            // renders of one seed are the same bit for bit; the command line's default is
+            // auto for both.
+            roulette: Roulette::Threshold(1.0),
             launch_target: Duration::from_millis(100),
             texture_filter: TextureFilter::Bilinear,
             max_texture_pixels: crate::scene::texture::DEFAULT_MAX_PIXELS,
@@ -137,7 +146,7 @@ impl Default for RenderOptions {
             cache_dir: None,
             reference: None,
             target_error: None,
-            nee: true,
+            light_sampling: LightSampling::On,
         }
     }
 }
@@ -152,6 +161,8 @@ pub struct Progress {
     pub paths_per_second: f64,
     /// The estimated error of the image so far (from 8 samples per pixel on).
     pub estimate: Option<ErrorEstimate>,
+    /// The estimator the render runs.
+    pub strategy: Strategy,
 }
 
 /// The error of the mean image estimated from the film alone: the samples of even and of odd
@@ -208,21 +219,47 @@ pub struct RenderStats {
     pub paths_per_second: f64,
     /// After every pass from 8 samples per pixel on.
     pub report: Vec<PassReport>,
+    /// The estimator the render ran, and what the trial measured when there was one.
+    pub choice: Choice,
+    /// Samples that were not finite, left out of the film (each counts as 0).
+    pub nonfinite: NonFinite,
+}
+
+/// Path samples that came out infinite or NaN (kernels/pathtracer.cl, `render_pass`): never
+/// added to the film, counted as 0, and reported.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NonFinite {
+    pub count: u64,
+    /// The first: (x, y from the top row, sample index), by sample index then pixel.
+    pub first: Option<(u32, u32, u32)>,
+}
+
+/// One program of the render kernel: with light sampling compiled in, or without.
+pub struct Estimator {
+    pub light_sampling: bool,
+    pub features: Features,
+    pub program: BuiltProgram,
+    kernel: ocl::Kernel,
 }
 
 /// A scene loaded on a device, ready to render.
 pub struct Renderer<'d> {
     device: &'d Device,
-    pub features: Features,
-    pub program: BuiltProgram,
+    /// One program for each light-sampling setting among the candidates, light sampling first.
+    estimators: Vec<Estimator>,
+    candidates: Vec<Strategy>,
+    /// The strategy the next launch runs.
+    strategy: Strategy,
     pub packed: PackedScene,
-    kernel: ocl::Kernel,
+    params: RenderParams,
     errors: ErrorKernel,
-    // The kernel holds these buffers' handles; they live as long as it does.
-    _scene: SceneBuffers,
+    // The kernels hold these buffers' handles; they live as long as the kernels do.
+    scene_buffers: SceneBuffers,
     sum: ocl::Buffer<f32>,
     sum_sq: ocl::Buffer<f32>,
     sum_odd: ocl::Buffer<f32>,
+    bad: ocl::Buffer<u32>,
+    bad_first: ocl::Buffer<u32>,
     options: RenderOptions,
 }
 
@@ -345,66 +382,111 @@ impl<'d> Renderer<'d> {
         };
         let params: RenderParams =
             packed.params(options.seed, options.max_depth, options.rr_depth, filter);
-        // Leave out what the scene does not need (features.rs, kernels/features.h).
-        let mut features = if options.all_features {
-            Features::all(scene, options.object_bvh)
-        } else {
-            Features::of(scene, options.object_bvh)
-        };
-        features.nee = options.nee && (options.all_features || !packed.lights.is_empty());
-        let program = program::build_entry(
-            device,
-            sources,
-            "pathtracer.cl",
-            &features.defines(),
-            options.cache_dir.as_deref(),
-        )?;
+        let candidates = strategy::candidates(
+            options.light_sampling,
+            options.roulette,
+            !packed.lights.is_empty(),
+        );
         let scene_buffers = SceneBuffers::new(device, &packed, &params)?;
         let pixels = packed.camera.width as usize * packed.camera.height as usize;
+        let fail = |e: ocl::Error| Error::opencl("allocating the film", e);
         let film_buffer = || {
             ocl::Buffer::<f32>::builder()
                 .queue(device.queue.clone())
                 .len(pixels * 4)
                 .fill_val(0.0f32)
                 .build()
-                .map_err(|e| Error::opencl("allocating the film", e))
+                .map_err(fail)
         };
-        let sum = film_buffer()?;
-        let sum_sq = film_buffer()?;
-        let sum_odd = film_buffer()?;
-        let mut builder = ocl::Kernel::builder();
-        builder
-            .program(&program.program)
-            .name("render_pass")
-            .queue(device.queue.clone())
-            .global_work_size([GROUP, GROUP]);
-        for buffer in scene_buffers.in_order() {
-            builder.arg(buffer);
+        let counter_buffer = || {
+            ocl::Buffer::<u32>::builder()
+                .queue(device.queue.clone())
+                .len(pixels)
+                .fill_val(0u32)
+                .build()
+                .map_err(fail)
+        };
+        let (sum, sum_sq, sum_odd) = (film_buffer()?, film_buffer()?, film_buffer()?);
+        let (bad, bad_first) = (counter_buffer()?, counter_buffer()?);
+        // One program per light-sampling setting the candidates need, light sampling first.
+        let mut estimators = Vec::new();
+        for light_sampling in [true, false] {
+            if !candidates
+                .iter()
+                .any(|c| c.light_sampling == light_sampling)
+            {
+                continue;
+            }
+            // Leave out what the scene does not need (features.rs, kernels/features.h).
+            let mut features = if options.all_features {
+                Features::all(scene, options.object_bvh)
+            } else {
+                Features::of(scene, options.object_bvh)
+            };
+            features.nee = light_sampling;
+            let program = program::build_entry(
+                device,
+                sources,
+                "pathtracer.cl",
+                &features.defines(),
+                options.cache_dir.as_deref(),
+            )?;
+            let mut builder = ocl::Kernel::builder();
+            builder
+                .program(&program.program)
+                .name("render_pass")
+                .queue(device.queue.clone())
+                .global_work_size([GROUP, GROUP]);
+            for buffer in scene_buffers.in_order() {
+                builder.arg(buffer);
+            }
+            let kernel = builder
+                .arg(&sum)
+                .arg(&sum_sq)
+                .arg(&sum_odd)
+                .arg(&bad)
+                .arg(&bad_first)
+                .arg_named("sample_start", 0u32)
+                .arg_named("sample_count", 0u32)
+                .arg_named("row_start", 0u32)
+                .arg_named("row_count", 0u32)
+                .arg_named("row_step", 1u32)
+                .build()
+                .map_err(|e| Error::opencl("creating the render kernel", e))?;
+            estimators.push(Estimator {
+                light_sampling,
+                features,
+                program,
+                kernel,
+            });
         }
-        let kernel = builder
-            .arg(&sum)
-            .arg(&sum_sq)
-            .arg(&sum_odd)
-            .arg(0u32)
-            .arg(0u32)
-            .arg(0u32)
-            .arg(0u32)
-            .build()
-            .map_err(|e| Error::opencl("creating the render kernel", e))?;
-        let errors = ErrorKernel::new(device, &program.program, &packed, &sum, &sum_odd, &options)?;
-        Ok(Renderer {
+        let errors = ErrorKernel::new(
             device,
-            features,
-            program,
+            &estimators[0].program.program,
+            &packed,
+            &sum,
+            &sum_odd,
+            &options,
+        )?;
+        let strategy = candidates[0];
+        let mut renderer = Renderer {
+            device,
+            estimators,
+            candidates,
+            strategy,
             packed,
-            kernel,
+            params,
             errors,
-            _scene: scene_buffers,
+            scene_buffers,
             sum,
             sum_sq,
             sum_odd,
+            bad,
+            bad_first,
             options,
-        })
+        };
+        renderer.select(strategy)?;
+        Ok(renderer)
     }
 
     pub fn width(&self) -> u32 {
@@ -415,23 +497,71 @@ impl<'d> Renderer<'d> {
         self.packed.camera.height
     }
 
-    /// One launch: rows [row_start, row_start + rows) x samples [sample_start, +count).
-    fn launch(&self, row_start: u32, rows: u32, sample_start: u32, count: u32) -> Result<()> {
+    /// The programs built for this render, light sampling first.
+    pub fn estimators(&self) -> &[Estimator] {
+        &self.estimators
+    }
+
+    /// The first program built (with light sampling when that is a candidate).
+    pub fn program(&self) -> &BuiltProgram {
+        &self.estimators[0].program
+    }
+
+    /// The strategies the render chooses among, the preferred first.
+    pub fn candidates(&self) -> &[Strategy] {
+        &self.candidates
+    }
+
+    /// Makes the next launches run `strategy`: its program, and its roulette threshold in the
+    /// parameters.
+    fn select(&mut self, strategy: Strategy) -> Result<()> {
+        self.params.rr_threshold = strategy.rr_threshold;
+        self.scene_buffers
+            .params
+            .write(bytemuck::bytes_of(&self.params))
+            .enq()
+            .map_err(|e| Error::opencl("writing the render parameters", e))?;
+        self.strategy = strategy;
+        Ok(())
+    }
+
+    fn kernel(&self) -> &ocl::Kernel {
+        let light_sampling = self.strategy.light_sampling;
+        &self
+            .estimators
+            .iter()
+            .find(|e| e.light_sampling == light_sampling)
+            .expect("a program for every candidate")
+            .kernel
+    }
+
+    /// One launch of the current strategy: `rows` rows from row_start, every row_step-th, x
+    /// samples [sample_start, +count).
+    fn launch(
+        &self,
+        row_start: u32,
+        rows: u32,
+        row_step: u32,
+        sample_start: u32,
+        count: u32,
+    ) -> Result<()> {
         let round_up = |n: usize| n.div_ceil(GROUP) * GROUP;
-        let set = |i: u32, v: u32| {
-            self.kernel
-                .set_arg(i, v)
+        let kernel = self.kernel();
+        let set = |name: &'static str, v: u32| {
+            kernel
+                .set_arg(name, v)
                 .map_err(|e| Error::opencl("setting a kernel argument", e))
         };
-        // After the 19 scene buffers and the three film buffers.
-        set(22, sample_start)?;
-        set(23, count)?;
-        set(24, row_start)?;
-        set(25, rows)?;
+        set("sample_start", sample_start)?;
+        set("sample_count", count)?;
+        set("row_start", row_start)?;
+        set("row_count", rows)?;
+        set("row_step", row_step)?;
         // SAFETY: the kernel's buffers are alive (owned by self) and sized for the whole
-        // image; the kernel bounds-checks the padded work-items.
+        // image; the kernel bounds-checks the padded work-items, and row_start + (rows - 1) *
+        // row_step is below the image's height.
         unsafe {
-            self.kernel
+            kernel
                 .cmd()
                 .global_work_size([round_up(self.width() as usize), round_up(rows as usize)])
                 .local_work_size([GROUP, GROUP])
@@ -444,24 +574,126 @@ impl<'d> Renderer<'d> {
             .map_err(|e| Error::opencl("running the render kernel", e))
     }
 
-    /// One small launch (a band of rows, one sample) whose result is then cleared: it leaves
-    /// the program compiled (PoCL generates machine code at the first launch) and the device
-    /// awake, so that a timed render measures rendering alone.
-    pub fn warm_up(&mut self) -> Result<()> {
-        self.launch(0, self.height().min(GROUP as u32 * 2), 0, 1)?;
+    /// Zeroes the film and the non-finite counters.
+    fn clear_film(&self) -> Result<()> {
+        let fail = |e: ocl::Error| Error::opencl("clearing the film", e);
         for film in [&self.sum, &self.sum_sq, &self.sum_odd] {
-            film.cmd()
-                .fill(0.0f32, None)
-                .enq()
-                .map_err(|e| Error::opencl("clearing the film", e))?;
+            film.cmd().fill(0.0f32, None).enq().map_err(fail)?;
         }
-        self.device
-            .queue
-            .finish()
-            .map_err(|e| Error::opencl("clearing the film", e))
+        for counter in [&self.bad, &self.bad_first] {
+            counter.cmd().fill(0u32, None).enq().map_err(fail)?;
+        }
+        self.device.queue.finish().map_err(fail)
+    }
+
+    /// One small launch of every program (a band of rows, one sample) whose result is then
+    /// cleared: it leaves the programs compiled (PoCL generates machine code at the first
+    /// launch) and the device awake, so that a timed render, or the strategy trial, measures
+    /// rendering alone.
+    pub fn warm_up(&mut self) -> Result<()> {
+        let current = self.strategy;
+        for light_sampling in self
+            .estimators
+            .iter()
+            .map(|e| e.light_sampling)
+            .collect::<Vec<_>>()
+        {
+            self.select(Strategy {
+                light_sampling,
+                ..current
+            })?;
+            self.launch(0, self.height().min(GROUP as u32 * 2), 1, 0, 1)?;
+        }
+        self.select(current)?;
+        self.clear_film()
+    }
+
+    /// Renders `rows` rows from row_start, every row_step-th, samples [sample_start, +count),
+    /// in launches of about the launch target: returns the seconds spent in launches and their
+    /// number.
+    fn render_rows(
+        &self,
+        row_start: u32,
+        rows: u32,
+        row_step: u32,
+        sample_start: u32,
+        count: u32,
+    ) -> Result<(f64, u32)> {
+        let target = self.options.launch_target.as_secs_f64().max(1e-3);
+        let mut per_launch = rows.min(GROUP as u32 * 2); // a probe, then sized from its rate
+        let (mut done, mut seconds, mut launches) = (0u32, 0.0, 0u32);
+        while done < rows {
+            let n = per_launch.min(rows - done);
+            let t0 = Instant::now();
+            self.launch(
+                row_start + done * row_step,
+                n,
+                row_step,
+                sample_start,
+                count,
+            )?;
+            let secs = t0.elapsed().as_secs_f64().max(1e-6);
+            seconds += secs;
+            launches += 1;
+            done += n;
+            let rows_per_second = n as f64 / secs;
+            per_launch = ((rows_per_second * target) as u32).clamp(1, rows);
+        }
+        Ok((seconds, launches))
+    }
+
+    /// The strategy trial ([`strategy`]): every candidate renders the same sparse rows, the
+    /// film is read back and cleared after each, and the most efficient is selected. With one
+    /// candidate there is nothing to measure.
+    fn choose_strategy(&mut self) -> Result<Choice> {
+        if self.candidates.len() < 2 {
+            let only = self.candidates[0];
+            self.select(only)?;
+            return Ok(Choice::only(only));
+        }
+        let start = Instant::now();
+        self.warm_up()?;
+        let (width, height) = (self.width(), self.height());
+        let step = strategy::trial_row_step(self.candidates.len(), self.options.spp, height);
+        let first_row = (step - 1) / 2;
+        let rows = (height - first_row).div_ceil(step);
+        let mut films = Vec::new();
+        for candidate in self.candidates.clone() {
+            self.select(candidate)?;
+            let (seconds, _) = self.render_rows(first_row, rows, step, 0, strategy::TRIAL_SPP)?;
+            let (sum, sum_odd) = (self.read(&self.sum)?, self.read(&self.sum_odd)?);
+            let pick = |film: &[[f32; 4]]| -> Vec<[f32; 3]> {
+                (0..rows)
+                    .flat_map(|r| {
+                        let row = (first_row + r * step) as usize * width as usize;
+                        film[row..row + width as usize]
+                            .iter()
+                            .map(|p| [p[0], p[1], p[2]])
+                    })
+                    .collect()
+            };
+            films.push(TrialFilm {
+                sum: pick(&sum),
+                sum_odd: pick(&sum_odd),
+                samples: strategy::TRIAL_SPP,
+                seconds,
+            });
+            self.clear_film()?;
+        }
+        let pixels = width as f64 * height as f64;
+        let choice = strategy::choose(
+            &self.candidates,
+            &films,
+            pixels,
+            start.elapsed().as_secs_f64(),
+        );
+        self.select(choice.strategy())?;
+        Ok(choice)
     }
 
     /// Renders until the sample count or time limit, calling `on_progress` after every pass.
+    /// With several candidate strategies, a short trial first picks the most efficient; its
+    /// time counts in the render's.
     pub fn render(
         &mut self,
         on_progress: &mut dyn FnMut(&Progress),
@@ -471,6 +703,7 @@ impl<'d> Renderer<'d> {
         let target = self.options.launch_target.as_secs_f64().max(1e-3);
         let total = self.options.spp;
         let start = Instant::now();
+        let choice = self.choose_strategy()?;
         let mut spp_done = 0u32;
         let mut report = Vec::new();
         let mut launches = 0u32;
@@ -495,7 +728,7 @@ impl<'d> Renderer<'d> {
             while row < height {
                 let rows = rows_per_launch.min(height - row);
                 let t0 = Instant::now();
-                self.launch(row, rows, spp_done, count)?;
+                self.launch(row, rows, 1, spp_done, count)?;
                 let secs = t0.elapsed().as_secs_f64().max(1e-6);
                 pass_rate = pass_rate.min(rows as f64 * width as f64 * count as f64 / secs);
                 launches += 1;
@@ -527,6 +760,7 @@ impl<'d> Renderer<'d> {
                 elapsed,
                 paths_per_second: pixels * spp_done as f64 / elapsed.as_secs_f64().max(1e-9),
                 estimate,
+                strategy: self.strategy,
             });
             if let (Some(target), Some(e)) = (self.options.target_error, estimate)
                 && e.relmse <= target
@@ -546,6 +780,7 @@ impl<'d> Renderer<'d> {
         }
         let elapsed = start.elapsed();
         let film = self.read_film(spp_done)?;
+        let nonfinite = self.nonfinite()?;
         Ok((
             film,
             RenderStats {
@@ -554,28 +789,62 @@ impl<'d> Renderer<'d> {
                 passes,
                 paths_per_second: pixels * spp_done as f64 / elapsed.as_secs_f64().max(1e-9),
                 report,
+                choice,
+                nonfinite,
             },
         ))
     }
 
-    fn read_film(&self, spp: u32) -> Result<Film> {
-        let read = |buffer: &ocl::Buffer<f32>| -> Result<Vec<[f32; 4]>> {
-            let mut flat = vec![0.0f32; buffer.len()];
+    /// A film buffer read back, a pixel a row of four.
+    fn read(&self, buffer: &ocl::Buffer<f32>) -> Result<Vec<[f32; 4]>> {
+        let mut flat = vec![0.0f32; buffer.len()];
+        buffer
+            .read(&mut flat)
+            .enq()
+            .map_err(|e| Error::opencl("reading the film back", e))?;
+        Ok(flat
+            .chunks_exact(4)
+            .map(|c| [c[0], c[1], c[2], c[3]])
+            .collect())
+    }
+
+    /// The non-finite samples the kernel counted, and the first of them.
+    fn nonfinite(&self) -> Result<NonFinite> {
+        let read = |buffer: &ocl::Buffer<u32>| -> Result<Vec<u32>> {
+            let mut v = vec![0u32; buffer.len()];
             buffer
-                .read(&mut flat)
+                .read(&mut v)
                 .enq()
-                .map_err(|e| Error::opencl("reading the film back", e))?;
-            Ok(flat
-                .chunks_exact(4)
-                .map(|c| [c[0], c[1], c[2], c[3]])
-                .collect())
+                .map_err(|e| Error::opencl("reading the sample counters back", e))?;
+            Ok(v)
         };
+        let (bad, first) = (read(&self.bad)?, read(&self.bad_first)?);
+        let width = self.width() as usize;
+        let height = self.height() as usize;
+        let mut out = NonFinite::default();
+        let mut earliest: Option<(u32, usize)> = None;
+        for (pixel, (&n, &f)) in bad.iter().zip(&first).enumerate() {
+            if n > 0 {
+                out.count += u64::from(n);
+                if earliest.is_none_or(|e| (f, pixel) < e) {
+                    earliest = Some((f, pixel));
+                }
+            }
+        }
+        out.first = earliest.map(|(sample, pixel)| {
+            let (x, row) = (pixel % width, pixel / width);
+            (x as u32, (height - 1 - row) as u32, sample)
+        });
+        Ok(out)
+    }
+
+    fn read_film(&self, spp: u32) -> Result<Film> {
         Ok(Film {
             width: self.width(),
             height: self.height(),
             spp,
-            sum: read(&self.sum)?,
-            sum_sq: read(&self.sum_sq)?,
+            sum: self.read(&self.sum)?,
+            sum_sq: self.read(&self.sum_sq)?,
         })
     }
 }

@@ -5,6 +5,7 @@
 //! built-in digit font, for viewers without SVG.
 
 use super::PassReport;
+use super::strategy::Choice;
 use crate::error::{Error, Result};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -13,14 +14,21 @@ use std::path::Path;
 pub const CSV_HEADER: &str =
     "pass,seconds,spp,spp_per_second,rmse_estimate,relmse_estimate,rmse,relmse,mae";
 
-/// Writes `rows` as CSV or JSON, by the extension of `path`.
-pub fn write_report(path: &Path, rows: &[PassReport]) -> Result<()> {
+/// Writes `rows` as CSV or JSON, by the extension of `path`, with the estimator the render ran
+/// and what its trial measured (CSV: `#` lines before the header; JSON: an object).
+pub fn write_report(path: &Path, rows: &[PassReport], choice: &Choice) -> Result<()> {
     let measured = |r: &PassReport, f: fn(&super::Metrics) -> f64| {
         r.measured.map(|m| f(&m).to_string()).unwrap_or_default()
     };
     let text = match extension(path).as_str() {
         "csv" => {
-            let mut out = format!("{CSV_HEADER}\n");
+            let mut out = format!("# estimator: {choice}\n");
+            if choice.was_measured() {
+                for line in choice.trial_lines() {
+                    let _ = writeln!(out, "# trial: {line}");
+                }
+            }
+            let _ = writeln!(out, "{CSV_HEADER}");
             for r in rows {
                 let _ = writeln!(
                     out,
@@ -49,7 +57,7 @@ pub fn write_report(path: &Path, rows: &[PassReport]) -> Result<()> {
                         )
                     });
                     format!(
-                        "  {{\"pass\": {}, \"seconds\": {}, \"spp\": {}, \"spp_per_second\": {}, \
+                        "    {{\"pass\": {}, \"seconds\": {}, \"spp\": {}, \"spp_per_second\": {}, \
                          \"rmse_estimate\": {}, \"relmse_estimate\": {}{m}}}",
                         r.pass,
                         r.seconds,
@@ -60,11 +68,53 @@ pub fn write_report(path: &Path, rows: &[PassReport]) -> Result<()> {
                     )
                 })
                 .collect();
-            format!("[\n{}\n]\n", items.join(",\n"))
+            let trial: Vec<String> = if choice.was_measured() {
+                choice
+                    .measured
+                    .iter()
+                    .enumerate()
+                    .map(|(i, m)| {
+                        format!(
+                            "    {{\"light_sampling\": {}, \"rr_threshold\": {}, \
+                             \"relmse_x_seconds\": {}, \"relative_variance\": {}, \
+                             \"seconds_per_path\": {}, \"missed_rare_paths\": {}, \
+                             \"chosen\": {}}}",
+                            m.strategy.light_sampling,
+                            m.strategy.rr_threshold,
+                            json_number(m.efficiency(choice.pixels)),
+                            json_number(m.relative_variance),
+                            json_number(m.seconds_per_sample),
+                            m.missed_rare_paths,
+                            i == choice.chosen
+                        )
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            let s = choice.strategy();
+            format!(
+                "{{\n  \"estimator\": {{\"light_sampling\": {}, \"rr_threshold\": {}, \
+                 \"trial_seconds\": {}}},\n  \"trial\": [\n{}\n  ],\n  \"passes\": [\n{}\n  ]\n}}\n",
+                s.light_sampling,
+                s.rr_threshold,
+                choice.seconds,
+                trial.join(",\n"),
+                items.join(",\n")
+            )
         }
         other => return Err(unknown(path, other, ".csv or .json")),
     };
     std::fs::write(path, text).map_err(|e| write_error(path, e))
+}
+
+/// A JSON number, or null for a value JSON cannot hold (NaN, infinities).
+fn json_number(v: f64) -> String {
+    if v.is_finite() {
+        v.to_string()
+    } else {
+        "null".into()
+    }
 }
 
 /// A polyline of (seconds, value) and how to draw it.

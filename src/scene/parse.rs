@@ -195,9 +195,27 @@ fn material_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Materi
             _ => return Err(cur.unknown_field(key, keyword, &MATERIAL_FIELDS)),
         }
     }
+    // A colour is the share of light a surface reflects or transmits: above 1 it would make
+    // energy, and a closed scene's radiance, and any estimate of it, unbounded (colour 2 in a
+    // closed room gave NaN pixels). Clamped to [0, 1], with a warning, as no renderer can give
+    // such a scene a finite image; the samples themselves are never clamped.
+    let color = color.map_or(DVec3::ONE, |(v, key)| {
+        let clamped = v.clamp(DVec3::ZERO, DVec3::ONE);
+        if clamped != v {
+            cur.warn(
+                key,
+                format!(
+                    "`color {} {} {}` is outside [0, 1] (a surface cannot reflect more light than \
+                     it receives, nor less than none): clamped to {} {} {}",
+                    v.x, v.y, v.z, clamped.x, clamped.y, clamped.z
+                ),
+            );
+        }
+        clamped
+    });
     Ok(Material {
         emission: emission.map_or(DVec3::ZERO, |(v, _)| v),
-        color: color.map_or(DVec3::ONE, |(v, _)| v),
+        color,
         kind: kind.map(|(v, _)| v).unwrap_or_default(),
         textures: textures.map(|(v, _)| v).unwrap_or_default(),
         location: cur.at(keyword),
@@ -390,11 +408,12 @@ fn transform_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<(Shap
         return Err(cur.error_at(keyword, "`Transform` without an object".into()));
     };
     let m = inner_m.map_or(m, |i| m * i);
-    // Singular relative to the matrix's own scale: |det| against the cube of its largest entry.
-    let scale = m
-        .to_cols_array()
+    // Singular relative to the matrix's own scale: |det| against the cube of the largest entry
+    // of its linear part (a translation, however far, flattens nothing).
+    let scale = [m.x_axis, m.y_axis, m.z_axis]
         .iter()
-        .fold(0.0f64, |a, &b| a.max(b.abs()));
+        .flat_map(|c| c.truncate().to_array())
+        .fold(0.0f64, |a, b| a.max(b.abs()));
     let det = m.determinant();
     if !det.is_finite() || det.abs() <= 1e-12 * scale.powi(3) {
         return Err(cur.error_at(

@@ -1,0 +1,483 @@
+//! Which estimator a render runs, chosen by measured efficiency: light sampling on or off
+//! (kernels/nee.h) and Russian roulette's threshold (kernels/pathtracer.cl), each fixed by the
+//! user or left to `auto`.
+//!
+//! Why measure: no setting wins everywhere. On the H200 at the original's sizes, light sampling
+//! doubles the time of the ceiling-lit showcases for the same error, yet reaches a small light's
+//! error 17 times sooner; roulette from a throughput of 1 (pbrt-v4's rule) is the most efficient
+//! in rooms whose albedo-1 lights keep paths bouncing, while in the original's closed rooms with
+//! black emitters, where paths end anyway, it only adds variance (a threshold of 0.3 reaches
+//! the same error 2.4 times sooner there). BENCHMARKS.md has the figures.
+//!
+//! How: before the render, every candidate renders [`TRIAL_SPP`] samples of the same sparse set
+//! of rows (every `row_step`-th row, so the trial sees the whole picture). Each pixel's sample
+//! variance over the common denominator (the candidates' mean value squared, plus ε, as relMSE
+//! has) is the relative variance of one sample; times the measured seconds per sample it is
+//! relMSE × seconds, the figure `clpt plot` compares, whose lower value reaches any error
+//! sooner. The render then starts afresh (sample 0) with the winner, so its image is exactly
+//! the one that setting gives when fixed by hand. Sample variance is unbiased, so a strategy
+//! whose rare paths did not show up in a trial is only under-read by chance, not by rule; the
+//! common denominator keeps a noisy strategy's dark pixels from flattering it.
+
+use super::metrics::REL_EPSILON;
+use std::fmt;
+
+/// Samples per pixel each candidate renders in the trial: two groups of four, each of which
+/// covers the pixel's four sub-pixels once. The difference of the two groups' sums measures the
+/// variance of the stratified estimate the render makes; the plain sample variance would count
+/// the differences between sub-pixels too, the same for every candidate, and blur the contrast
+/// between them (on smallpt it read pure path tracing's variance 1.3 times light sampling's
+/// where the render measures 1.9).
+pub const TRIAL_SPP: u32 = 8;
+
+/// Roulette thresholds `auto` tries: 1 (pbrt-v4's throughput roulette) and 0.3, which lets
+/// paths run on until their weight has fallen below 0.3 (see kernels/pathtracer.cl).
+pub const RR_THRESHOLDS: [f32; 2] = [1.0, 0.3];
+
+/// The trial takes at most about this share of a render given a sample count.
+const TRIAL_SHARE: f64 = 0.06;
+
+/// The coarsest row sampling of the trial: every fourth row at most.
+const MIN_ROW_STEP: u32 = 4;
+
+/// `--light-sampling`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightSampling {
+    /// Measured: on or off, whichever reaches a given error sooner.
+    #[default]
+    Auto,
+    On,
+    Off,
+}
+
+impl std::str::FromStr for LightSampling {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(LightSampling::Auto),
+            "on" => Ok(LightSampling::On),
+            "off" => Ok(LightSampling::Off),
+            other => Err(format!(
+                "unknown light sampling `{other}`: use auto, on or off"
+            )),
+        }
+    }
+}
+
+/// `--rr-threshold`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Roulette {
+    /// Measured among [`RR_THRESHOLDS`].
+    #[default]
+    Auto,
+    /// Paths whose largest throughput component is below this play roulette.
+    Threshold(f32),
+}
+
+impl std::str::FromStr for Roulette {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s == "auto" {
+            return Ok(Roulette::Auto);
+        }
+        match s.parse::<f32>() {
+            Ok(t) if t.is_finite() && t > 0.0 && t <= 1.0 => Ok(Roulette::Threshold(t)),
+            _ => Err(format!(
+                "roulette threshold `{s}`: use auto or a number in (0, 1]"
+            )),
+        }
+    }
+}
+
+/// One estimator: what a render launch runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Strategy {
+    /// Next-event estimation with MIS (a program built with `CLPT_NEE`).
+    pub light_sampling: bool,
+    /// Roulette's threshold (`RenderParams::rr_threshold`).
+    pub rr_threshold: f32,
+}
+
+impl fmt::Display for Strategy {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "light sampling {}, roulette below {}",
+            if self.light_sampling { "on" } else { "off" },
+            self.rr_threshold
+        )
+    }
+}
+
+/// The strategies a render chooses among, the preferred first (ties and unmeasurable trials,
+/// such as a black picture, go to it). Light sampling is a candidate only when the scene has a
+/// listed light.
+pub fn candidates(light: LightSampling, roulette: Roulette, has_lights: bool) -> Vec<Strategy> {
+    let lights: &[bool] = match (light, has_lights) {
+        (LightSampling::Off, _) | (_, false) => &[false],
+        (LightSampling::On, true) => &[true],
+        (LightSampling::Auto, true) => &[true, false],
+    };
+    let thresholds: Vec<f32> = match roulette {
+        Roulette::Auto => RR_THRESHOLDS.to_vec(),
+        Roulette::Threshold(t) => vec![t],
+    };
+    lights
+        .iter()
+        .flat_map(|&l| {
+            thresholds.iter().map(move |&t| Strategy {
+                light_sampling: l,
+                rr_threshold: t,
+            })
+        })
+        .collect()
+}
+
+/// Every `row_step`-th row takes part in the trial: the coarsest step that keeps the trial of
+/// `candidates` strategies within [`TRIAL_SHARE`] of a render of `spp` samples (every fourth
+/// row at most, and at least one row).
+pub fn trial_row_step(candidates: usize, spp: Option<u32>, height: u32) -> u32 {
+    let work = (candidates as u32 * TRIAL_SPP) as f64; // in full-image samples per pixel
+    let step = match spp {
+        Some(n) => (work / (TRIAL_SHARE * n as f64)).ceil() as u32,
+        None => MIN_ROW_STEP,
+    };
+    step.max(MIN_ROW_STEP).min(height.max(1))
+}
+
+/// What the trial measured of one candidate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Measured {
+    pub strategy: Strategy,
+    /// Seconds per path sample.
+    pub seconds_per_sample: f64,
+    /// Relative variance of one sample, averaged over the trial's pixels and channels.
+    pub relative_variance: f64,
+    /// Its image mean fell significantly below the most precise candidate's: its trial missed
+    /// rare bright paths, so its variance reads low and it is not chosen.
+    pub missed_rare_paths: bool,
+}
+
+impl Measured {
+    /// relMSE × seconds of a render of `pixels` pixels with this strategy: lower reaches any
+    /// error sooner.
+    pub fn efficiency(&self, pixels: f64) -> f64 {
+        self.relative_variance * self.seconds_per_sample * pixels
+    }
+}
+
+/// The outcome of the trial.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Choice {
+    pub measured: Vec<Measured>,
+    /// Index into `measured` of the strategy the render runs.
+    pub chosen: usize,
+    /// Wall time of the trial.
+    pub seconds: f64,
+    /// The image's pixel count, which relMSE × seconds scales with.
+    pub pixels: f64,
+}
+
+impl Choice {
+    /// The choice when there is one candidate: nothing measured.
+    pub fn only(strategy: Strategy) -> Choice {
+        Choice {
+            measured: vec![Measured {
+                strategy,
+                seconds_per_sample: f64::NAN,
+                relative_variance: f64::NAN,
+                missed_rare_paths: false,
+            }],
+            chosen: 0,
+            seconds: 0.0,
+            pixels: f64::NAN,
+        }
+    }
+
+    pub fn strategy(&self) -> Strategy {
+        self.measured[self.chosen].strategy
+    }
+
+    /// Whether a trial measured the candidates.
+    pub fn was_measured(&self) -> bool {
+        self.measured.len() > 1
+    }
+
+    /// One line per candidate: the strategy and its measured relMSE × seconds, relative
+    /// variance per sample and microseconds per path, the chosen one marked.
+    pub fn trial_lines(&self) -> Vec<String> {
+        self.measured
+            .iter()
+            .enumerate()
+            .map(|(i, m)| {
+                format!(
+                    "{}: relMSE x s {:.3e} (relative variance {:.3e} per sample, {:.4} us per path){}{}",
+                    m.strategy,
+                    m.efficiency(self.pixels),
+                    m.relative_variance,
+                    m.seconds_per_sample * 1e6,
+                    if m.missed_rare_paths {
+                        ", image mean too low: rare paths missed"
+                    } else {
+                        ""
+                    },
+                    if i == self.chosen { ", chosen" } else { "" }
+                )
+            })
+            .collect()
+    }
+}
+
+/// One candidate's trial film: per trial pixel, the sum of its samples and the sum of those of
+/// its odd group of four (kernels/pathtracer.cl, `render_pass`).
+pub struct TrialFilm {
+    pub sum: Vec<[f32; 3]>,
+    pub sum_odd: Vec<[f32; 3]>,
+    pub samples: u32,
+    pub seconds: f64,
+}
+
+/// How many standard errors a candidate's image mean may fall below the reference's before
+/// its trial is taken to have missed rare paths.
+const MISSED_SIGMAS: f64 = 3.0;
+
+/// An unbiased estimate of the variance of one sample of the render's stratified estimate, in
+/// one pixel and channel, from the sums of the two groups of four: with σ_k² the variance of
+/// sub-pixel k, the groups' difference has expected square 2 Σ σ_k², and one sample of the
+/// stratified estimate counts for (1/4) Σ σ_k².
+fn stratified_variance(sum: f32, sum_odd: f32) -> f64 {
+    let difference = f64::from(sum) - 2.0 * f64::from(sum_odd);
+    difference * difference / 8.0
+}
+
+/// The image mean of a trial film (summed over pixels and channels) and its standard error.
+fn total_mean(film: &TrialFilm) -> (f64, f64) {
+    let n = f64::from(film.samples);
+    let (mut mean, mut var) = (0.0, 0.0);
+    for (s, o) in film.sum.iter().zip(&film.sum_odd) {
+        for c in 0..3 {
+            mean += f64::from(s[c]) / n;
+            var += stratified_variance(s[c], o[c]) / n;
+        }
+    }
+    (mean, var.sqrt())
+}
+
+/// The relative variance's denominator of each trial pixel and channel, mean² + ε: the mean of
+/// the trusted candidates' films weighted by the precision of their image means. Pooling
+/// lessens the noise of a few samples per pixel; the weights keep a noisy candidate's rare
+/// bright sample from raising its own pixel's denominator and hiding its variance, and one
+/// that missed rare paths from pulling the denominator down.
+fn denominator(films: &[TrialFilm], totals: &[(f64, f64)], missed: &[bool]) -> Vec<[f64; 3]> {
+    let n_pixels = films.first().map_or(0, |f| f.sum.len());
+    let weights: Vec<f64> = totals
+        .iter()
+        .zip(missed)
+        .map(|(&(_, se), &missed)| {
+            if missed {
+                0.0
+            } else if se > 0.0 {
+                1.0 / (se * se)
+            } else {
+                1e300 // exact: it alone decides
+            }
+        })
+        .collect();
+    let total_weight: f64 = weights.iter().sum();
+    let mut mean = vec![[0.0f64; 3]; n_pixels];
+    for (film, &w) in films.iter().zip(&weights) {
+        let k = if total_weight > 0.0 {
+            w / total_weight
+        } else {
+            1.0 / films.len() as f64
+        } / f64::from(film.samples);
+        for (m, s) in mean.iter_mut().zip(&film.sum) {
+            for c in 0..3 {
+                m[c] += k * f64::from(s[c]);
+            }
+        }
+    }
+    mean.into_iter()
+        .map(|m| m.map(|c| c * c + f64::from(REL_EPSILON)))
+        .collect()
+}
+
+/// Measures every candidate and picks the one of least relMSE × seconds among those whose
+/// trial can be trusted (the first among equals, and when none could be measured).
+///
+/// Two guards against rare paths, whose samples are few but carry most of the variance (pure
+/// path tracing of a small light, caustics):
+/// - The denominator of the relative variance is the mean image of the most precise candidate
+///   (least standard error of the image mean, relative to it), not an average: a rare bright
+///   sample would raise its own pixel's denominator and hide its variance.
+/// - A candidate whose image mean lies more than [`MISSED_SIGMAS`] standard errors below the
+///   most precise one's has, by the two being unbiased estimates of the same image, missed
+///   rare bright paths, and its variance reads low: it is not chosen.
+pub fn choose(
+    strategies: &[Strategy],
+    films: &[TrialFilm],
+    pixels: f64,
+    trial_seconds: f64,
+) -> Choice {
+    let n_pixels = films.first().map_or(0, |f| f.sum.len()).max(1);
+    let totals: Vec<(f64, f64)> = films.iter().map(total_mean).collect();
+    let mut reference = 0;
+    for (i, &(mean, se)) in totals.iter().enumerate() {
+        let (best_mean, best_se) = totals[reference];
+        if mean > 0.0 && (best_mean.is_nan() || best_mean <= 0.0 || se / mean < best_se / best_mean)
+        {
+            reference = i;
+        }
+    }
+    let (ref_mean, ref_se) = totals[reference];
+    let missed: Vec<bool> = totals
+        .iter()
+        .map(|&(mean, se)| mean < ref_mean - MISSED_SIGMAS * se.hypot(ref_se))
+        .collect();
+    let denominator = denominator(films, &totals, &missed);
+    let measured: Vec<Measured> = strategies
+        .iter()
+        .zip(films)
+        .enumerate()
+        .map(|(i, (&strategy, film))| {
+            let n = f64::from(film.samples);
+            let mut rel = 0.0;
+            for ((s, o), d) in film.sum.iter().zip(&film.sum_odd).zip(&denominator) {
+                for c in 0..3 {
+                    rel += stratified_variance(s[c], o[c]) / d[c];
+                }
+            }
+            Measured {
+                strategy,
+                seconds_per_sample: film.seconds / (n * n_pixels as f64),
+                relative_variance: rel / (3 * n_pixels) as f64,
+                missed_rare_paths: missed[i],
+            }
+        })
+        .collect();
+    // The least relMSE x seconds among the trusted; ties, and candidates that could not be
+    // measured (a non-finite figure), keep the earlier.
+    let mut chosen = 0;
+    for (i, m) in measured.iter().enumerate() {
+        let (e, best) = (m.efficiency(pixels), measured[chosen].efficiency(pixels));
+        let trusted = !m.missed_rare_paths;
+        if trusted
+            && e.is_finite()
+            && (measured[chosen].missed_rare_paths || !best.is_finite() || e < best)
+        {
+            chosen = i;
+        }
+    }
+    Choice {
+        measured,
+        chosen,
+        seconds: trial_seconds,
+        pixels,
+    }
+}
+
+impl fmt::Display for Choice {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.strategy())?;
+        if self.was_measured() {
+            write!(f, " (chosen in a {:.2} s trial)", self.seconds)?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn strategy(light_sampling: bool, rr_threshold: f32) -> Strategy {
+        Strategy {
+            light_sampling,
+            rr_threshold,
+        }
+    }
+
+    #[test]
+    fn candidates_follow_the_options_and_the_light_list() {
+        let all = candidates(LightSampling::Auto, Roulette::Auto, true);
+        assert_eq!(
+            all,
+            [
+                strategy(true, 1.0),
+                strategy(true, 0.3),
+                strategy(false, 1.0),
+                strategy(false, 0.3)
+            ]
+        );
+        // No listed light: nothing for light sampling to sample.
+        assert_eq!(
+            candidates(LightSampling::On, Roulette::Threshold(0.5), false),
+            [strategy(false, 0.5)]
+        );
+        assert_eq!(
+            candidates(LightSampling::Off, Roulette::Auto, true),
+            [strategy(false, 1.0), strategy(false, 0.3)]
+        );
+        assert!("0".parse::<Roulette>().is_err() && "1.5".parse::<Roulette>().is_err());
+        assert_eq!("0.25".parse::<Roulette>(), Ok(Roulette::Threshold(0.25)));
+        assert!("maybe".parse::<LightSampling>().is_err());
+    }
+
+    #[test]
+    fn the_trial_takes_a_small_share_of_a_render() {
+        // 4 candidates x 8 samples on every 4th row: 8 samples per pixel of work.
+        assert_eq!(trial_row_step(4, None, 480), 4);
+        assert_eq!(trial_row_step(4, Some(1000), 480), 4);
+        // 64 samples: at most 6% of them, 3.84 samples' worth: every 9th row.
+        assert_eq!(trial_row_step(4, Some(64), 480), 9);
+        // Never more rows apart than the image has.
+        assert_eq!(trial_row_step(4, Some(1), 5), 5);
+    }
+
+    /// A trial film of `pixels` pixels whose two groups of four sum to `even` and `odd` in
+    /// every channel.
+    fn film(pixels: usize, even: f32, odd: f32, seconds: f64) -> TrialFilm {
+        TrialFilm {
+            sum: vec![[even + odd; 3]; pixels],
+            sum_odd: vec![[odd; 3]; pixels],
+            samples: TRIAL_SPP,
+            seconds,
+        }
+    }
+
+    #[test]
+    fn the_least_variance_times_time_wins() {
+        let s = [strategy(true, 1.0), strategy(false, 1.0)];
+        // Mean 1 in both; the first has 4 times the second's variance and half its time.
+        let (a, b) = (film(100, 6.0, 2.0, 1.0), film(100, 5.0, 3.0, 2.0));
+        let choice = choose(&s, &[a, b], 100.0, 3.0);
+        let m = &choice.measured;
+        assert!((m[0].relative_variance / m[1].relative_variance - 4.0).abs() < 1e-9);
+        assert_eq!(choice.chosen, 1, "{:?}", choice);
+        // Four times as fast turns it round.
+        let (a, b) = (film(100, 6.0, 2.0, 0.4), film(100, 5.0, 3.0, 2.0));
+        assert_eq!(choose(&s, &[a, b], 100.0, 3.0).chosen, 0);
+        // Equal figures (a black picture): the first.
+        let (a, b) = (film(100, 0.0, 0.0, 1.0), film(100, 0.0, 0.0, 1.0));
+        assert_eq!(choose(&s, &[a, b], 100.0, 3.0).chosen, 0);
+    }
+
+    #[test]
+    fn a_candidate_whose_mean_fell_short_missed_rare_paths_and_is_not_chosen() {
+        let s = [strategy(true, 1.0), strategy(false, 1.0)];
+        // Pixel means 1 with a little noise, against means of 0.5 with less noise: by the two
+        // being unbiased estimates of one image, the second missed its rare bright samples.
+        let precise: Vec<[f32; 3]> = (0..400).map(|i| [4.0 + (i % 3) as f32 * 0.1; 3]).collect();
+        let a = TrialFilm {
+            sum: precise.iter().map(|p| p.map(|v| v * 2.0)).collect(),
+            sum_odd: precise.clone(),
+            samples: TRIAL_SPP,
+            seconds: 10.0,
+        };
+        let b = film(400, 2.0, 2.0, 0.1);
+        let choice = choose(&s, &[a, b], 400.0, 1.0);
+        assert!(choice.measured[1].missed_rare_paths, "{choice:?}");
+        assert!(!choice.measured[0].missed_rare_paths);
+        assert_eq!(choice.chosen, 0);
+    }
+}
