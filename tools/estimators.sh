@@ -1,0 +1,34 @@
+#!/bin/bash
+# The estimators of issue 12 side by side, for BENCHMARKS.md: every scene rendered at the given
+# samples with the defaults (the trial's choice, `auto`), and with each fixed setting: light
+# sampling on or off, roulette below 1 (the rule of earlier versions) or 0.3. One CSV row a run:
+#   scene,setting,spp,seconds,relmse_estimate,relmse_x_seconds,estimator
+# The `off,1` row is what `--no-nee` gave before this issue, `on,1` the earlier default.
+#   tools/estimators.sh CLPT OUT.csv SCENE:SPP[:W:H] ...
+# CLPT is the binary; the device comes from $CLPT_DEVICE.
+set -euo pipefail
+clpt=$1 out=$2
+shift 2
+tmp=$(mktemp -d)
+echo "scene,setting,spp,seconds,relmse_estimate,relmse_x_seconds,estimator" > "$out"
+for entry in "$@"; do
+  IFS=: read -r file spp w h <<< "$entry"
+  size=()
+  [ -n "${w:-}" ] && size=(--width "$w" --height "$h")
+  for setting in auto on,1 off,1 on,0.3 off,0.3; do
+    if [ "$setting" = auto ]; then
+      flags=()
+    else
+      flags=(--light-sampling "${setting%,*}" --rr-threshold "${setting#*,}")
+    fi
+    "$clpt" render "$file" "${size[@]}" --spp "$spp" --seed 1 -q "${flags[@]}" \
+      -o "$tmp/image.pfm" --report "$tmp/report.csv" 2> "$tmp/log" || { cat "$tmp/log"; exit 1; }
+    estimator=$(sed -n 's/^# estimator: //p' "$tmp/report.csv" | tr ',' ';')
+    last=$(tail -1 "$tmp/report.csv")
+    seconds=$(cut -d, -f2 <<< "$last")
+    relmse=$(cut -d, -f6 <<< "$last")
+    product=$(awk -v a="$relmse" -v b="$seconds" 'BEGIN { printf "%.4e", a * b }')
+    echo "$(basename "$file"),$setting,$spp,$seconds,$relmse,$product,$estimator" | tee -a "$out"
+  done
+done
+rm -rf "$tmp"
