@@ -10,7 +10,10 @@
 //!   quadrant's mean, per channel, agrees within 5 standard errors, on those three scenes and on
 //!   one lit by every kind of listed emitter (a transformed sphere, a rotated square, the
 //!   triangles of a scaled mesh) and an unlisted ellipsoid, with bump-mapped and smooth-normal
-//!   diffuse surfaces (tests/common `every_light_scene`).
+//!   diffuse surfaces (tests/common `every_light_scene`), and on the original's case2 room
+//!   whose emitters light sampling clips to the room (src/device/lights.rs): its ceiling and
+//!   front wall of range 1000, a rotated panel through three walls, and a mesh lamp above the
+//!   ceiling it drops (tests/common `clipped_room_scene`).
 //!
 //! The small light is kept out of the picture: seen directly, its few pixels of Bernoulli
 //! coverage (0 or 400) carry nearly all of the image's RMSE, and with so few degrees of freedom
@@ -154,6 +157,10 @@ fn light_sampling_and_pure_path_tracing_agree() {
     let dir = std::env::temp_dir().join(format!("clpt-convergence-{}", std::process::id()));
     let mut all = scenes();
     all.push(("every light", common::every_light_scene(&dir)));
+    all.push((
+        "clipped room",
+        common::clipped_room_scene(&dir.join("clipped")),
+    ));
     for (name, scene) in all {
         let with = film(&scene, true, 2048, 7);
         let without = film(&scene, false, 8192, 8);

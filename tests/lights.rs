@@ -2,12 +2,22 @@
 //! emitters it takes, where it places them in world space, and the probabilities of picking
 //! them. That light sampling and pure path tracing then agree on the device is
 //! tests/convergence.rs's `light_sampling_and_pure_path_tracing_agree`.
+//!
+//! Clipping to the closed room around the camera (lights.rs module doc): case2's ceiling and
+//! front wall shrink to the room; an open room, a wall of glass, a wall too short, a camera
+//! outside or a lens through a wall clip nothing; a rotated panel through three walls becomes a
+//! rectangle holding every point of it in the room, and not much more; emitters and triangles
+//! no point of the room sees are dropped.
 
 mod common;
 
 use clpt::device::layout::{Light, OBJECT_MESH, OBJECT_PLANE, OBJECT_SPHERE};
+use clpt::device::lights::Room;
 use clpt::device::upload::PackedScene;
+use clpt::scene::Scene;
 use glam::{DMat4, DVec3};
+use rand::rngs::SmallRng;
+use rand::{RngExt, SeedableRng};
 use std::f64::consts::PI;
 
 /// The light list of common::every_light_scene (its files under a folder of the test's own).
@@ -136,4 +146,360 @@ fn the_shipped_lights_scene_lists_all_its_emitters() {
         ),
         (1, 1, 24576)
     );
+}
+
+fn pack(scene: &Scene) -> PackedScene {
+    PackedScene::new(scene, u64::MAX).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The room of case2: x in [-100, 100], y in [0, 160], z in [-100, 1000].
+const ROOM_LO: DVec3 = DVec3::new(-100.0, 0.0, -100.0);
+const ROOM_HI: DVec3 = DVec3::new(100.0, 160.0, 1000.0);
+
+fn plane_light(lights: &[Light], index: u32) -> &Light {
+    lights
+        .iter()
+        .find(|l| l.kind == OBJECT_PLANE && l.index == index)
+        .unwrap_or_else(|| panic!("plane {index} is not listed: {lights:?}"))
+}
+
+fn near(a: DVec3, b: DVec3, tol: f64) -> bool {
+    (a - b).abs().max_element() <= tol
+}
+
+/// The room and its walls, as case2 and common::room_walls have them.
+fn assert_case2_room(room: Option<&Room>) {
+    let room = room.expect("a closed room");
+    assert_eq!((room.lo, room.hi), (ROOM_LO, ROOM_HI));
+    // x >= -100, x <= 100, y >= 0 (floor), y <= 160 (ceiling), z >= -100, z <= 1000.
+    assert_eq!(room.walls, [3, 2, 5, 0, 4, 1]);
+    assert!(
+        room.tolerance > 0.0 && room.tolerance <= 0.011,
+        "{}",
+        room.tolerance
+    );
+}
+
+/// Case2's ceiling (plane 0) and front wall (plane 1), both of range 1000, clipped to the
+/// room: by hand, the ceiling becomes x in [-100, 100], z in [-100, 1000] at y = 160 (220000
+/// of its 4e6), the front wall x in [-100, 100], y in [0, 160] at z = 1000 (32000), each
+/// grown by the tolerance (0.01) where the room, not the square, ends it.
+fn assert_case2_lights(lights: &[Light]) {
+    let ceiling = plane_light(lights, 0);
+    let (c, e1, e2) = (v(ceiling.corner), v(ceiling.edge1), v(ceiling.edge2));
+    assert!(
+        near(c, DVec3::new(-100.0, 160.0, -100.0), 0.02),
+        "{ceiling:?}"
+    );
+    assert!(near(e1, DVec3::new(200.0, 0.0, 0.0), 0.03), "{ceiling:?}");
+    assert!(near(e2, DVec3::new(0.0, 0.0, 1100.0), 0.03), "{ceiling:?}");
+    // It holds the whole face: x from -100 to 100, z from -100 to the square's end, 1000.
+    assert!(
+        c.x <= -100.0 && c.x + e1.x >= 100.0 && c.z <= -100.0,
+        "{ceiling:?}"
+    );
+    assert!(c.z + e2.z >= 1000.0 - 1e-3, "{ceiling:?}");
+    assert!(
+        close(f64::from(ceiling.area), 220_000.0, 2e-4),
+        "{}",
+        ceiling.area
+    );
+    assert_eq!(ceiling.normal, [0.0, -1.0, 0.0]);
+
+    let front = plane_light(lights, 1);
+    let (c, e1, e2) = (v(front.corner), v(front.edge1), v(front.edge2));
+    // Edges swapped so that e1 x e2 points along its normal, -z: e1 along y, e2 along x.
+    assert!(near(c, DVec3::new(-100.0, 0.0, 1000.0), 0.02), "{front:?}");
+    assert!(near(e1, DVec3::new(0.0, 160.0, 0.0), 0.03), "{front:?}");
+    assert!(near(e2, DVec3::new(200.0, 0.0, 0.0), 0.03), "{front:?}");
+    assert!(c.x <= -100.0 && c.x + e2.x >= 100.0 && c.y <= 0.0 && c.y + e1.y >= 160.0);
+    assert!(
+        close(f64::from(front.area), 32_000.0, 3e-4),
+        "{}",
+        front.area
+    );
+    assert_eq!(front.normal, [0.0, 0.0, -1.0]);
+    // Same emission: picked in proportion to the clipped areas.
+    let ratio = f64::from(ceiling.prob) / f64::from(front.prob);
+    assert!(close(ratio, 220.0 / 32.0, 1e-3), "{ratio}");
+}
+
+#[test]
+fn case2_s_ceiling_and_front_wall_are_clipped_to_the_room() {
+    let Some(seed) = common::seed_dir("case2_s_ceiling_and_front_wall_are_clipped_to_the_room")
+    else {
+        return;
+    };
+    let path = seed.join("testcases/case2_softshadows_colorbleeding.txt");
+    let packed = pack(&Scene::load(&path).unwrap_or_else(|e| panic!("{e}")));
+    assert_case2_room(packed.room.as_ref());
+    assert_eq!(packed.lights.len(), 2);
+    assert_case2_lights(&packed.lights);
+}
+
+#[test]
+fn the_case2_room_without_textures_clips_the_same() {
+    let packed = pack(&common::room_scene(
+        "center 0 60 500",
+        &common::room_walls(),
+    ));
+    assert_case2_room(packed.room.as_ref());
+    assert_case2_lights(&packed.lights);
+}
+
+/// Unclipped: both emitters keep their whole 2000 x 2000 squares.
+fn assert_unclipped(packed: &PackedScene, what: &str) {
+    assert_eq!(packed.room, None, "{what}");
+    assert_eq!(packed.lights.len(), 2, "{what}");
+    for l in &packed.lights {
+        assert_eq!(l.area, 4e6, "{what}: {l:?}");
+        assert_eq!(v(l.edge1).length(), 2000.0, "{what}: {l:?}");
+    }
+}
+
+#[test]
+fn an_open_room_clips_nothing() {
+    let walls = common::room_walls();
+    // The floor left out, made of glass (paths pass it), too short to close the room (range
+    // 500 < 1000, the back-to-front depth) or facing down (the camera behind it).
+    let floors = [
+        ("no floor", None),
+        (
+            "glass floor",
+            Some("MaterialIndex 2 Plane { normal 0 1 0 offset 0 range 1000 }"),
+        ),
+        (
+            "short floor",
+            Some("MaterialIndex 1 Plane { normal 0 1 0 offset 0 range 500 }"),
+        ),
+        (
+            "floor facing down",
+            Some("MaterialIndex 1 Plane { normal 0 -1 0 offset 0 range 1000 }"),
+        ),
+    ];
+    for (what, floor) in floors {
+        let mut objects = walls[..5].to_vec();
+        objects.extend(floor.map(String::from));
+        assert_unclipped(
+            &pack(&common::room_scene("center 0 60 500", &objects)),
+            what,
+        );
+    }
+    // The short floor of range 999.99 fails by 0.01; at range 1000 the room closes.
+    let mut objects = walls[..5].to_vec();
+    objects.push("MaterialIndex 1 Plane { normal 0 1 0 offset 0 range 999.99 }".into());
+    assert_unclipped(
+        &pack(&common::room_scene("center 0 60 500", &objects)),
+        "999.99",
+    );
+}
+
+/// A floor whose type map picks diffuse or mirror per texel closes the room (case0's and
+/// case3's floors); one glass texel opens it, as paths may pass the floor there.
+#[test]
+fn a_floor_with_a_type_map_closes_the_room_unless_a_texel_is_glass() {
+    let dir = std::env::temp_dir().join(format!("clpt-lights-{}-type-map", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut walls = common::room_walls();
+    walls[5] = "MaterialIndex 5 Plane { normal 0 1 0 offset 0 range 1000 \
+                centerp 0 0 0 dirU 0.01 0 0 dirV 0 0 0.01 }"
+        .into();
+    // Red: diffuse, green: mirror, blue: glass (the original's type rule).
+    for (texels, closed) in [("255 0 0  0 255 0", true), ("255 0 0  0 0 255", false)] {
+        let map = dir.join(format!("type-{closed}.ppm"));
+        std::fs::write(&map, format!("P3\n2 1\n255\n{texels}\n")).unwrap();
+        let floor = format!("Material {{ texture {{ type {} }} }}", map.display());
+        let packed = pack(&common::room_scene_with(
+            "center 0 60 500",
+            &[floor],
+            &walls,
+        ));
+        if closed {
+            assert_case2_room(packed.room.as_ref());
+            assert_case2_lights(&packed.lights);
+        } else {
+            assert_unclipped(&packed, "a glass texel in the floor's type map");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_camera_outside_the_room_or_a_lens_through_a_wall_clips_nothing() {
+    let walls = common::room_walls();
+    for (what, camera) in [
+        ("behind the front wall", "center 0 60 1100"),
+        ("beside the room", "center 150 60 500"),
+        ("on the wall x = 100", "center 100 60 500"),
+        // A thin lens of radius 4 at x = 97 reaches x = 101 (its square spans x and y).
+        (
+            "lens through x = 100",
+            "center 97 60 500 flength 400 aperture 4",
+        ),
+        (
+            "lens through the floor",
+            "center 0 3 500 flength 400 aperture 4",
+        ),
+    ] {
+        assert_unclipped(&pack(&common::room_scene(camera, &walls)), what);
+    }
+    // A lens of radius 2 there stays inside: clipped as usual.
+    for camera in [
+        "center 97 60 500 flength 400 aperture 2",
+        "center 0 3 500 flength 400 aperture 2",
+    ] {
+        let packed = pack(&common::room_scene(camera, &walls));
+        assert_case2_room(packed.room.as_ref());
+        assert_case2_lights(&packed.lights);
+    }
+}
+
+/// A lamp panel hung under the ceiling, facing down to the camera like a wall but covering
+/// little: the room is still closed by the ceiling behind it, and the panel is listed whole.
+#[test]
+fn a_lamp_panel_under_the_ceiling_does_not_open_the_room() {
+    let mut objects = common::room_walls();
+    objects.push("MaterialIndex 3 Plane { normal 0 -1 0 offset -150 range 20 }".into());
+    let packed = pack(&common::room_scene("center 0 60 500", &objects));
+    assert_case2_room(packed.room.as_ref());
+    assert_case2_lights(&packed.lights);
+    let panel = plane_light(&packed.lights, 6);
+    assert_eq!(panel.area, 1600.0);
+    assert_eq!(v(panel.corner), DVec3::new(-20.0, 150.0, -20.0));
+}
+
+/// Emitters no point of the room sees are dropped: a square above the ceiling facing down
+/// (wholly outside), one on the ceiling's plane facing up (seen from behind only) and a mesh
+/// quad above the ceiling; the quad inside keeps both its triangles.
+#[test]
+fn emitters_and_triangles_no_point_of_the_room_sees_are_dropped() {
+    let dir = std::env::temp_dir().join(format!("clpt-lights-{}-dropped", std::process::id()));
+    let scene = common::clipped_room_scene(&dir);
+    let objects = [
+        "MaterialIndex 3 Plane { normal 0 -1 0 offset -170 range 50 }",
+        "MaterialIndex 3 Plane { normal 0 1 0 offset 160 range 50 }",
+    ]
+    .map(String::from);
+    let mut all = scene.clone();
+    all.objects
+        .extend(common::room_scene("center 0 60 500", &objects).objects);
+    let packed = pack(&all);
+    let mut outside = all.clone();
+    outside.camera.center = DVec3::new(0.0, 60.0, 1100.0);
+    let unclipped = pack(&outside);
+    let _ = std::fs::remove_dir_all(&dir);
+    let keys: Vec<(u32, u32, u32)> = packed
+        .lights
+        .iter()
+        .map(|l| (l.kind, l.index, l.triangle))
+        .collect();
+    // Planes: ceiling 0, front wall 1, the panel 6 (and not 7, 8). Meshes: instance 0 (inside)
+    // and not 1 (above the ceiling).
+    assert_eq!(
+        keys,
+        [
+            (OBJECT_PLANE, 0, 0),
+            (OBJECT_PLANE, 1, 0),
+            (OBJECT_PLANE, 6, 0),
+            (OBJECT_MESH, 0, 0),
+            (OBJECT_MESH, 0, 1)
+        ]
+    );
+    // The quad's triangles are whole: 30 x 30 between them.
+    let area: f64 = packed.lights[3..].iter().map(|l| f64::from(l.area)).sum();
+    assert!(close(area, 900.0, 1e-6), "{area}");
+    // With the camera outside, nothing is clipped nor dropped.
+    assert_eq!(unclipped.lights.len(), 9);
+}
+
+/// The part of the parallelogram `corner + e1 u + e2 v` (u, v in [0, 1]) in the box lo..hi:
+/// every random point of it lies in `light`'s parallelogram, and on a 400 x 400 grid the
+/// light's area is within 2% of its points' bounding rectangle (in u, v).
+fn assert_holds_part_in_room(light: &Light, corner: DVec3, e1: DVec3, e2: DVec3, what: &str) {
+    let (lc, l1, l2) = (v(light.corner), v(light.edge1), v(light.edge2));
+    let (g11, g12, g22) = (l1.dot(l1), l1.dot(l2), l2.dot(l2));
+    let det = g11 * g22 - g12 * g12;
+    let inside = |p: DVec3| p.cmpge(ROOM_LO).all() && p.cmple(ROOM_HI).all();
+    let holds = |p: DVec3| {
+        let r = p - lc;
+        let (r1, r2) = (l1.dot(r), l2.dot(r));
+        let a = (g22 * r1 - g12 * r2) / det;
+        let b = (g11 * r2 - g12 * r1) / det;
+        let off_plane = (r - l1 * a - l2 * b).length();
+        let slack = 1e-5;
+        (-slack..=1.0 + slack).contains(&a)
+            && (-slack..=1.0 + slack).contains(&b)
+            && off_plane < 1e-3
+    };
+    let mut rng = SmallRng::seed_from_u64(12);
+    let mut tried = 0;
+    for _ in 0..40_000 {
+        let (u, w) = (rng.random_range(0.0..=1.0), rng.random_range(0.0..=1.0));
+        let p = corner + e1 * u + e2 * w;
+        if inside(p) {
+            tried += 1;
+            assert!(
+                holds(p),
+                "{what}: {p} (u {u}, v {w}) is in the room, not in {light:?}"
+            );
+        }
+    }
+    assert!(
+        tried > 100,
+        "{what}: only {tried} random points in the room"
+    );
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    let n = 400;
+    for i in 0..=n {
+        for j in 0..=n {
+            let (u, w) = (i as f64 / n as f64, j as f64 / n as f64);
+            let p = corner + e1 * u + e2 * w;
+            if inside(p) {
+                assert!(holds(p), "{what}: {p} is in the room, not in {light:?}");
+                lo = [lo[0].min(u), lo[1].min(w)];
+                hi = [hi[0].max(u), hi[1].max(w)];
+            }
+        }
+    }
+    let bounding = e1.cross(e2).length() * (hi[0] - lo[0]) * (hi[1] - lo[1]);
+    let area = f64::from(light.area);
+    assert!(
+        area >= 0.999 * bounding && area <= 1.02 * bounding,
+        "{what}: area {area}, its part in the room bounded by {bounding}"
+    );
+    assert!(
+        close(l1.cross(l2).length(), area, 1e-5),
+        "{what}: {light:?}"
+    );
+}
+
+#[test]
+fn random_points_of_the_emitters_in_the_room_lie_in_their_clipped_regions() {
+    let dir = std::env::temp_dir().join(format!("clpt-lights-{}-points", std::process::id()));
+    let packed = pack(&common::clipped_room_scene(&dir));
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_case2_room(packed.room.as_ref());
+    // The panel's own square |x|, |z| <= 30 at y = 0, in the world.
+    let m = common::room_panel_transform();
+    let corner = m.transform_point3(DVec3::new(-30.0, 0.0, -30.0));
+    let (ex, ez) = (
+        m.transform_vector3(DVec3::new(60.0, 0.0, 0.0)),
+        m.transform_vector3(DVec3::new(0.0, 0.0, 60.0)),
+    );
+    let panel = plane_light(&packed.lights, 6);
+    assert!(
+        f64::from(panel.area) < 0.8 * 3600.0 && panel.area > 0.0,
+        "the panel pokes through three walls: {panel:?}"
+    );
+    assert_holds_part_in_room(panel, corner, ex, ez, "panel");
+    // It still faces its own side, -y turned by the transform.
+    let n = m.transform_vector3(DVec3::NEG_Y).normalize();
+    assert!(v(panel.normal).dot(n) > 1.0 - 1e-6);
+    assert!(v(panel.edge1).cross(v(panel.edge2)).normalize().dot(n) > 1.0 - 1e-6);
+    // The ceiling and the front wall, from their whole squares.
+    let (x, y, z) = (DVec3::X * 2000.0, DVec3::Y * 2000.0, DVec3::Z * 2000.0);
+    let ceiling = DVec3::new(-1000.0, 160.0, -1000.0);
+    assert_holds_part_in_room(plane_light(&packed.lights, 0), ceiling, x, z, "ceiling");
+    let front = DVec3::new(-1000.0, -1000.0, 1000.0);
+    assert_holds_part_in_room(plane_light(&packed.lights, 1), front, x, y, "front wall");
 }

@@ -16,15 +16,79 @@
 //! A light is picked in proportion to its power, π·Le·area (twice for two-sided triangles), with
 //! Le the mean of the emission's channels: a scene's tiny lamp and its big glowing wall each get
 //! samples in proportion to what they light (pbrt-v4's `PowerLightSampler`).
+//!
+//! # Emitters sampled where they can be seen: the closed room
+//!
+//! The original's rooms are 200 wide under ceilings of `range 1000`: sampled whole, 95% of a
+//! ceiling's samples would land where no shading point sees it. So when the camera stands in a
+//! closed room ([`closed_room`]), every emitter is clipped to that room.
+//!
+//! A *wall* is an untransformed plane whose normal lies along an axis and whose material can
+//! only reflect: not refractive, or, with a type map (which sets the type texel by texel, at
+//! the nearest texel), no texel of it glass. Its front half-space is the closed side its
+//! normal points to. A room B is the box cut out by six walls, one per side (x ≥ ·, x ≤ ·,
+//! y ≥ ·, ...), each of which has the camera's eye and, for a thin lens, the whole square of
+//! half-size `lens_radius` around it on the lens plane (which holds the lens disk) strictly in
+//! front, by more than the tolerance t below. The room is *closed* when each side's face (the
+//! rectangle of its wall's plane spanned by B's four other sides) lies within that wall's range
+//! square (`|p - n offset| <= range`, boundary included as in plane.h; the original's rooms
+//! fit it exactly: case2's ceiling, floor and side walls end at z = 1000, the front wall's
+//! plane).
+//! Of the walls on a side, the one nearest the camera is tried first, and passed over for the
+//! next while its square does not cover its face: a nearer wall only shrinks the other faces,
+//! so a wall passed over never covers its face later, and this finds the smallest closed room
+//! if there is one (a lamp panel hung under the ceiling leaves the ceiling to close the room).
+//!
+//! Claim: in a closed room, every ray a path follows starts in B and every point it reaches is
+//! in B. Primary rays start on the eye or the lens square, inside B. A ray from inside B whose
+//! segment to its first hit left B would cross, at the point where it first leaves, a face of
+//! B inside its wall's square, from the wall's front: the one-sided plane is hit there
+//! (plane.h), so the first hit was no later, in B. A path that reaches a wall arrives from its
+//! front and leaves to its front (material.h reflects diffuse and mirror directions to the
+//! arriving side of the geometric normal, bump maps included; walls do not refract), and its
+//! spawn point is offset to that side (ray.h). Objects inside or poking through walls change
+//! nothing: the proof is about where rays cross the walls, whatever they pass inside.
+//!
+//! Hence: a light sample at a point q outside B is occluded from every shading point p (in B):
+//! the shadow ray meets a wall where it first leaves B, before q, and a ray meets a flat
+//! emitter (plane square or triangle) at one point only, so the wall is not the emitter at q.
+//! And BSDF sampling never reaches an emitter outside B. So each plane emitter is sampled over
+//! the part of it in B only: its parallelogram (the square under its transform) is clipped to
+//! B as a polygon, in its own edge parameters (a, b) of `corner + edge1·a + edge2·b`, and the
+//! light becomes the parameter rectangle bounding that polygon: still a parallelogram, holding
+//! every point of the emitter in B, with `area` the clipped area that nee.h's `light_pdf`
+//! divides by. Light sampling then integrates over the clipped region only what it integrated
+//! over the whole square (the rest is occluded), and the MIS weight of a BSDF hit uses that
+//! density exactly, since BSDF hits outside the region cannot happen: no kernel change. An
+//! emitter wholly outside B, or facing away from all of B (one-sided: seen from behind only),
+//! is dropped; so is a mesh triangle wholly outside B (a triangle partly inside is kept whole:
+//! its sampling is a triangle's).
+//!
+//! The tolerance: B is grown by t = 1e-5 × the largest coordinate among the candidate walls'
+//! planes and the camera's points (at least 1e-5) on every side before clipping, and the camera
+//! must be more than t in front of its walls; t is some 10 times the rounding-error bound of a
+//! plane hit point (ray.h, plane.h) and some 100 f32 ulps, so hit points rounded off a face
+//! and f32 light samples stay inside the grown box. The proof is in exact arithmetic apart from
+//! that: a path can still slip through a wall where another surface lies within rounding error
+//! of it (a ball touching the floor, a surface coplanar with a wall) or through a seam within
+//! rounding error of a face's edge on its square's boundary, as it could before; only such
+//! paths, of negligible measure, can reach what clipping leaves out. When no closed room holds
+//! the camera, nothing is clipped.
 
-use super::layout::{self, Light, Material, MeshDesc, Transform};
+use super::layout::{self, Light, Material, MeshDesc, TextureMap, Transform};
 use super::upload::f32x3;
+use crate::scene::camera::CameraBasis;
 use glam::{DMat3, DVec3};
 use std::f64::consts::PI;
 
 /// What the light list reads of a packed scene.
 pub struct LightSources<'a> {
+    /// Where primary rays start: the room emitters are clipped to must hold its eye and lens.
+    pub camera: &'a CameraBasis,
     pub materials: &'a [Material],
+    /// Texture maps and their texels: a wall's type map must hold no glass.
+    pub maps: &'a [TextureMap],
+    pub texels: &'a [u8],
     pub spheres: &'a [layout::Sphere],
     pub planes: &'a [layout::Plane],
     pub transforms: &'a [Transform],
@@ -34,8 +98,9 @@ pub struct LightSources<'a> {
     pub vertices: &'a [[f32; 3]],
 }
 
-/// The light list, sorted by (kind, index, triangle), its `prob` and `cdf` filled in.
-pub fn collect_lights(scene: &LightSources) -> Vec<Light> {
+/// The light list, sorted by (kind, index, triangle), its `prob` and `cdf` filled in; its
+/// plane emitters clipped to `room` and its emitters wholly outside it dropped (module doc).
+pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
     let mut lights = Vec::new();
     let mut powers = Vec::new();
     let mut push = |light: Light, power: f64| {
@@ -83,17 +148,30 @@ pub fn collect_lights(scene: &LightSources) -> Vec<Light> {
             affine.vector(b * 2.0 * range),
         );
         let cross = e1.cross(e2);
-        let area = cross.length();
+        let mut area = cross.length();
         let mut normal = cross / area;
         if normal.dot(affine.normal(n)) < 0.0 {
             std::mem::swap(&mut e1, &mut e2);
             normal = -normal;
         }
+        let mut corner = affine.point(corner);
+        if let Some(room) = room {
+            if room.faces_away(corner, normal) {
+                continue; // seen from behind from everywhere in the room
+            }
+            let Some([a0, a1, b0, b1]) = room.clip(corner, e1, e2, &SQUARE) else {
+                continue; // wholly outside the room
+            };
+            corner += e1 * a0 + e2 * b0;
+            e1 *= a1 - a0;
+            e2 *= b1 - b0;
+            area *= (a1 - a0) * (b1 - b0);
+        }
         let light = Light {
             kind: layout::OBJECT_PLANE,
             index: i as u32,
             material: p.material,
-            corner: f32x3(affine.point(corner)),
+            corner: f32x3(corner),
             edge1: f32x3(e1),
             edge2: f32x3(e2),
             normal: f32x3(normal),
@@ -121,6 +199,9 @@ pub fn collect_lights(scene: &LightSources) -> Vec<Light> {
             let area = 0.5 * cross.length();
             if area.is_nan() || area <= 0.0 {
                 continue; // degenerate: nothing to sample, and no ray hits it
+            }
+            if room.is_some_and(|room| room.clip(v[0], e1, e2, &TRIANGLE).is_none()) {
+                continue; // wholly outside the room: no path sees it
             }
             let light = Light {
                 kind: layout::OBJECT_MESH,
@@ -164,15 +245,217 @@ pub fn collect_lights(scene: &LightSources) -> Vec<Light> {
     sorted
 }
 
-/// One line for `clpt render -v`: how many spheres, squares and triangles the list holds.
-pub fn report(lights: &[Light]) -> String {
+/// One line for `clpt render -v`: how many spheres, squares and triangles the list holds, and
+/// the room its emitters are clipped to.
+pub fn report(lights: &[Light], room: Option<&Room>) -> String {
     let count = |kind| lights.iter().filter(|l| l.kind == kind).count();
+    let clipped = match room {
+        Some(r) => format!(
+            "clipped to the closed room [{}, {}] x [{}, {}] x [{}, {}] (planes {:?})",
+            r.lo.x, r.hi.x, r.lo.y, r.hi.y, r.lo.z, r.hi.z, r.walls
+        ),
+        None => "no closed room around the camera: emitters sampled whole".to_string(),
+    };
     format!(
-        "light list: {} spheres, {} plane squares, {} triangles",
+        "light list: {} spheres, {} plane squares, {} triangles; {clipped}",
         count(layout::OBJECT_SPHERE),
         count(layout::OBJECT_PLANE),
         count(layout::OBJECT_MESH)
     )
+}
+
+/// The room's tolerance, relative to the largest coordinate of its candidate walls and camera.
+pub const ROOM_TOLERANCE: f64 = 1e-5;
+
+/// The unit square and triangle in edge parameters (a, b) of `corner + edge1 a + edge2 b`.
+const SQUARE: [[f64; 2]; 4] = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+const TRIANGLE: [[f64; 2]; 3] = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+
+/// A closed room around the camera (module doc): no path leaves the box `lo..hi`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Room {
+    pub lo: DVec3,
+    pub hi: DVec3,
+    /// How far the box is grown on every side before emitters are clipped to it.
+    pub tolerance: f64,
+    /// The walls' plane indices, sides in the order x ≥, x ≤, y ≥, y ≤, z ≥, z ≤.
+    pub walls: [u32; 6],
+}
+
+impl Room {
+    /// The rectangle [a0, a1] x [b0, b1] in [0, 1]^2 bounding the points `corner + e1 a + e2 b`
+    /// of the convex `polygon` (given in (a, b)) inside the grown box, as [a0, a1, b0, b1], or
+    /// None if no point is: the polygon clipped by the box's six sides (Sutherland-Hodgman),
+    /// each side a linear function of (a, b). Corners inside are kept exactly, so an emitter
+    /// wholly inside comes back as [0, 1, 0, 1].
+    pub fn clip(
+        &self,
+        corner: DVec3,
+        e1: DVec3,
+        e2: DVec3,
+        polygon: &[[f64; 2]],
+    ) -> Option<[f64; 4]> {
+        let mut poly = polygon.to_vec();
+        for k in 0..3 {
+            let sides = [
+                (1.0, self.lo[k] - self.tolerance),
+                (-1.0, self.hi[k] + self.tolerance),
+            ];
+            for (sign, bound) in sides {
+                // f >= 0 inside this side.
+                let f = |p: [f64; 2]| sign * (corner[k] + e1[k] * p[0] + e2[k] * p[1] - bound);
+                let mut out = Vec::with_capacity(poly.len() + 1);
+                for (i, &p) in poly.iter().enumerate() {
+                    let q = poly[(i + 1) % poly.len()];
+                    let (fp, fq) = (f(p), f(q));
+                    if fp >= 0.0 {
+                        out.push(p);
+                    }
+                    if (fp >= 0.0) != (fq >= 0.0) {
+                        let s = fp / (fp - fq);
+                        out.push([p[0] + (q[0] - p[0]) * s, p[1] + (q[1] - p[1]) * s]);
+                    }
+                }
+                poly = out;
+                if poly.is_empty() {
+                    return None;
+                }
+            }
+        }
+        let bound = |c: usize, pick: fn(f64, f64) -> f64, start: f64| {
+            poly.iter().map(|p| p[c]).fold(start, pick).clamp(0.0, 1.0)
+        };
+        Some([
+            bound(0, f64::min, f64::INFINITY),
+            bound(0, f64::max, f64::NEG_INFINITY),
+            bound(1, f64::min, f64::INFINITY),
+            bound(1, f64::max, f64::NEG_INFINITY),
+        ])
+    }
+
+    /// Whether the one-sided plane through `point` with front `normal` has every point of the
+    /// box on or behind it, so that nothing in the room sees its front: light samples there
+    /// have a cosine of at most 0 (up to rounding, at grazing angles, where they carry nothing).
+    pub fn faces_away(&self, point: DVec3, normal: DVec3) -> bool {
+        // The box's corner farthest along the normal.
+        let far = DVec3::select(normal.cmpge(DVec3::ZERO), self.hi, self.lo);
+        (far - point).dot(normal) <= 0.0
+    }
+}
+
+/// The smallest closed room of walls around the camera, if there is one (module doc).
+pub fn closed_room(scene: &LightSources) -> Option<Room> {
+    let cam = scene.camera;
+    let mut eye = vec![cam.origin];
+    let r = cam.lens_radius.abs();
+    if r > 0.0 {
+        for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            eye.push(cam.origin + cam.lens_u * (r * su) + cam.lens_v * (r * sv));
+        }
+    }
+    // Candidate walls: (side, plane coordinate, range, plane index); side 2k + 1 for x_k <= c.
+    let mut walls = Vec::new();
+    for (i, p) in scene.planes.iter().enumerate() {
+        let Some(m) = scene.materials.get(p.material as usize) else {
+            continue;
+        };
+        let axes: Vec<usize> = (0..3).filter(|&k| p.normal[k] != 0.0).collect();
+        let &[k] = axes.as_slice() else {
+            continue;
+        };
+        let nk = f64::from(p.normal[k]);
+        let c = f64::from(p.offset) / nk;
+        let range = f64::from(p.range);
+        if p.transform != layout::TRANSFORM_NONE
+            || !reflects_only(scene, m)
+            || !c.is_finite()
+            || range.is_nan()
+            || range < 0.0
+        {
+            continue;
+        }
+        walls.push((2 * k + usize::from(nk < 0.0), c, range, i as u32));
+    }
+    let scale = eye
+        .iter()
+        .map(|p| p.abs().max_element())
+        .chain(walls.iter().map(|w| w.1.abs()))
+        .fold(1.0, f64::max);
+    let tolerance = ROOM_TOLERANCE * scale;
+    if !tolerance.is_finite() {
+        return None;
+    }
+    // Per side, the walls with every eye point more than the tolerance in front, nearest first.
+    let mut sides: [Vec<(f64, f64, u32)>; 6] = Default::default();
+    for (side, c, range, i) in walls {
+        let k = side / 2;
+        let upper = side % 2 == 1;
+        if eye
+            .iter()
+            .all(|p| if upper { c - p[k] } else { p[k] - c } > tolerance)
+        {
+            sides[side].push((c, range, i));
+        }
+    }
+    for (side, walls) in sides.iter_mut().enumerate() {
+        walls.sort_by(|a, b| {
+            if side % 2 == 1 {
+                a.0.total_cmp(&b.0)
+            } else {
+                b.0.total_cmp(&a.0)
+            }
+        });
+    }
+    // Pass over each side's wall while its square does not cover its face: under looser walls
+    // elsewhere the face only grows, so a wall passed over never becomes usable again.
+    let mut pick = [0usize; 6];
+    loop {
+        let mut chosen = [(0.0, 0.0, 0u32); 6];
+        for side in 0..6 {
+            chosen[side] = *sides[side].get(pick[side])?;
+        }
+        let lo = DVec3::new(chosen[0].0, chosen[2].0, chosen[4].0);
+        let hi = DVec3::new(chosen[1].0, chosen[3].0, chosen[5].0);
+        let mut closed = true;
+        for side in 0..6 {
+            let range = chosen[side].1;
+            let covered = (0..3)
+                .filter(|&j| j != side / 2)
+                .all(|j| lo[j].abs().max(hi[j].abs()) <= range);
+            if !covered {
+                pick[side] += 1;
+                closed = false;
+            }
+        }
+        if closed {
+            return Some(Room {
+                lo,
+                hi,
+                tolerance,
+                walls: chosen.map(|w| w.2),
+            });
+        }
+    }
+}
+
+/// Whether every point of a surface of material m reflects paths back to the side they came
+/// from (diffuse or mirror, nowhere glass): its type, or every texel of its type map
+/// (pathtracer.cl `material_at` reads type maps at the nearest texel, unfiltered).
+fn reflects_only(scene: &LightSources, m: &Material) -> bool {
+    if m.type_map == layout::MAP_NONE {
+        return m.kind != layout::MATERIAL_REFRACTIVE;
+    }
+    let Some(map) = scene.maps.get(m.type_map as usize) else {
+        return false;
+    };
+    let start = map.offset as usize;
+    let end = start + map.width as usize * map.height as usize;
+    map.format == layout::MAP_TYPE8
+        && scene.texels.get(start..end).is_some_and(|types| {
+            !types
+                .iter()
+                .any(|&t| u32::from(t) == layout::MATERIAL_REFRACTIVE)
+        })
 }
 
 /// The mean channel of a material's emission, if it emits a constant (unmapped) radiance.

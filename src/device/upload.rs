@@ -59,6 +59,8 @@ pub struct PackedScene {
     pub revsurfaces: Vec<RevSurface>,
     /// The emitters next-event estimation samples ([`lights::collect_lights`]).
     pub lights: Vec<Light>,
+    /// The closed room around the camera they are clipped to ([`lights::closed_room`]).
+    pub room: Option<lights::Room>,
     /// Control points (x, y) of every surface of revolution's Bezier segments.
     pub rev_points: Vec<[f32; 2]>,
     /// World boxes of `objects[..first_unbounded]`, as the BVH was built on them.
@@ -376,7 +378,7 @@ impl PackedScene {
             ));
         }
         out.push('\n');
-        out.push_str(&lights::report(&self.lights));
+        out.push_str(&lights::report(&self.lights, self.room.as_ref()));
         out
     }
 
@@ -406,10 +408,14 @@ impl PackedScene {
         }
     }
 
-    /// The light list of next-event estimation ([`lights::collect_lights`]).
+    /// The light list of next-event estimation ([`lights::collect_lights`]), clipped to the
+    /// closed room around the camera if there is one.
     fn collect_lights(&mut self) {
-        self.lights = lights::collect_lights(&lights::LightSources {
+        let sources = lights::LightSources {
+            camera: &self.camera,
             materials: &self.materials,
+            maps: &self.textures.maps,
+            texels: &self.textures.texels,
             spheres: &self.spheres,
             planes: &self.planes,
             transforms: &self.transforms,
@@ -417,7 +423,10 @@ impl PackedScene {
             mesh_instances: &self.mesh_instances,
             triangles: &self.triangles,
             vertices: &self.vertices,
-        });
+        };
+        let room = lights::closed_room(&sources);
+        let list = lights::collect_lights(&sources, room.as_ref());
+        (self.room, self.lights) = (room, list);
     }
 }
 

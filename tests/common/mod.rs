@@ -272,3 +272,87 @@ pub fn every_light_scene(dir: &std::path::Path) -> clpt::scene::Scene {
     );
     clpt::scene::parse::parse_scene(&text, "every light").unwrap_or_else(|e| panic!("{e}"))
 }
+
+/// The six walls of the original's case2 room (seed data, textures left out), in its order:
+/// planes 0 the ceiling y = 160 and 1 the front wall z = 1000 (both emitting, material 0),
+/// 2 x = 100, 3 x = -100, 4 the back wall z = -100, 5 the floor y = 0; every range 1000.
+pub fn room_walls() -> Vec<String> {
+    [
+        "MaterialIndex 0 Plane { normal 0 -1 0 offset -160 range 1000 }",
+        "MaterialIndex 0 Plane { normal 0 0 -1 offset -1000 range 1000 }",
+        "MaterialIndex 1 Plane { normal -1 0 0 offset -100 range 1000 }",
+        "MaterialIndex 4 Plane { normal 1 0 0 offset -100 range 1000 }",
+        "MaterialIndex 1 Plane { normal 0 0 1 offset -100 range 1000 }",
+        "MaterialIndex 1 Plane { normal 0 1 0 offset 0 range 1000 }",
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+/// A 24x18 scene of `objects` seen by a camera looking down -z (`camera`: its `center`, and
+/// `flength` and `aperture` for a thin lens). Materials: 0 the case2 ceiling's emission
+/// (0.42 0.41 0.4, colour 0), 1 grey 0.75, 2 glass, 3 emission 2 2 2 (colour 0), 4 red.
+pub fn room_scene(camera: &str, objects: &[String]) -> clpt::scene::Scene {
+    room_scene_with(camera, &[], objects)
+}
+
+/// [`room_scene`] with `materials` added after its five (as materials 5, 6, ...).
+pub fn room_scene_with(
+    camera: &str,
+    materials: &[String],
+    objects: &[String],
+) -> clpt::scene::Scene {
+    let text = format!(
+        "PerspectiveCamera {{ {camera} direction 0 0 -1 angle 30 width 24 height 18 }}\n\
+         Materials {{ numMaterials {} \
+         Material {{ emission 0.42 0.41 0.4 color 0 0 0 }} \
+         Material {{ color 0.75 0.75 0.75 }} \
+         Material {{ color 0.999 0.999 0.999 type refr }} \
+         Material {{ emission 2 2 2 color 0 0 0 }} \
+         Material {{ color 0.75 0.25 0.25 }} {} }}\n\
+         Group {{ numObjects {} {} }}\n",
+        5 + materials.len(),
+        materials.join(" "),
+        objects.len(),
+        objects.join(" ")
+    );
+    clpt::scene::parse::parse_scene(&text, "room").unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A rotated emitting square (material 3) through the room's wall x = 100, its ceiling and its
+/// front wall: object-space square |x|, |z| <= 30 at y = 0, facing -y, under
+/// [`room_panel_transform`].
+pub const ROOM_PANEL: &str = "MaterialIndex 3 Transform { Translate 90 150 980 ZRotate 30 \
+                              XRotate 20 Plane { normal 0 -1 0 offset 0 range 30 } }";
+
+/// The transform of [`ROOM_PANEL`].
+pub fn room_panel_transform() -> glam::DMat4 {
+    glam::DMat4::from_translation(DVec3::new(90.0, 150.0, 980.0))
+        * glam::DMat4::from_rotation_z(30f64.to_radians())
+        * glam::DMat4::from_rotation_x(20f64.to_radians())
+}
+
+/// The case2 room made for clipping (written to `dir`, its quad mesh): [`room_walls`], the
+/// [`ROOM_PANEL`] through three walls, an emitting quad mesh (material 3) twice, once inside
+/// the room and once above its ceiling (dropped from the light list), and a red ball on the
+/// floor. Its ceiling, front wall and panel are clipped to the room.
+pub fn clipped_room_scene(dir: &std::path::Path) -> clpt::scene::Scene {
+    std::fs::create_dir_all(dir).unwrap();
+    let quad = dir.join("quad.obj");
+    std::fs::write(
+        &quad,
+        "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    let mut objects = room_walls();
+    objects.push(ROOM_PANEL.to_string());
+    for (at, turn) in [("-50 100 0", 160), ("0 200 0", 180)] {
+        objects.push(format!(
+            "MaterialIndex 3 Transform {{ Translate {at} ZRotate {turn} UniformScale 15 \
+             Mesh {{ obj_file {} }} }}",
+            quad.display()
+        ));
+    }
+    objects.push("MaterialIndex 4 Sphere { center 30 25 100 radius 25 }".to_string());
+    room_scene("center 0 60 500", &objects)
+}
