@@ -661,20 +661,13 @@ impl<'d> Renderer<'d> {
         for candidate in self.candidates.clone() {
             self.select(candidate)?;
             let (seconds, _) = self.render_rows(first_row, rows, step, 0, strategy::TRIAL_SPP)?;
-            let (sum, sum_odd) = (self.read(&self.sum)?, self.read(&self.sum_odd)?);
-            let pick = |film: &[[f32; 4]]| -> Vec<[f32; 3]> {
-                (0..rows)
-                    .flat_map(|r| {
-                        let row = (first_row + r * step) as usize * width as usize;
-                        film[row..row + width as usize]
-                            .iter()
-                            .map(|p| [p[0], p[1], p[2]])
-                    })
-                    .collect()
+            let rgb = |buffer: &ocl::Buffer<f32>| -> Result<Vec<[f32; 3]>> {
+                let flat = self.read_rows(buffer, first_row, rows, step)?;
+                Ok(flat.chunks_exact(4).map(|c| [c[0], c[1], c[2]]).collect())
             };
             films.push(TrialFilm {
-                sum: pick(&sum),
-                sum_odd: pick(&sum_odd),
+                sum: rgb(&self.sum)?,
+                sum_odd: rgb(&self.sum_odd)?,
                 samples: strategy::TRIAL_SPP,
                 seconds,
             });
@@ -793,6 +786,33 @@ impl<'d> Renderer<'d> {
                 nonfinite,
             },
         ))
+    }
+
+    /// `rows` rows of a film buffer from first_row, every step-th, in one rectangular read.
+    fn read_rows(
+        &self,
+        buffer: &ocl::Buffer<f32>,
+        first_row: u32,
+        rows: u32,
+        step: u32,
+    ) -> Result<Vec<f32>> {
+        let row = self.width() as usize * 4; // floats
+        let mut flat = vec![0.0f32; rows as usize * row];
+        let float = std::mem::size_of::<f32>();
+        buffer
+            .read(&mut flat)
+            .rect(
+                [first_row as usize * row, 0, 0],
+                [0, 0, 0],
+                [row, rows as usize, 1],
+                step as usize * row * float,
+                0,
+                row * float,
+                0,
+            )
+            .enq()
+            .map_err(|e| Error::opencl("reading the trial's rows back", e))?;
+        Ok(flat)
     }
 
     /// A film buffer read back, a pixel a row of four.
