@@ -654,13 +654,14 @@ impl<'d> Renderer<'d> {
         let start = Instant::now();
         self.warm_up()?;
         let (width, height) = (self.width(), self.height());
-        let step = strategy::trial_row_step(self.candidates.len(), self.options.spp, height);
+        let plan = strategy::trial_plan(self.candidates.len(), self.options.spp, height);
+        let step = plan.row_step;
         let first_row = (step - 1) / 2;
         let rows = (height - first_row).div_ceil(step);
         let mut films = Vec::new();
         for candidate in self.candidates.clone() {
             self.select(candidate)?;
-            let (seconds, _) = self.render_rows(first_row, rows, step, 0, strategy::TRIAL_SPP)?;
+            let (seconds, _) = self.render_rows(first_row, rows, step, 0, plan.samples)?;
             let rgb = |buffer: &ocl::Buffer<f32>| -> Result<Vec<[f32; 3]>> {
                 let flat = self.read_rows(buffer, first_row, rows, step)?;
                 Ok(flat.chunks_exact(4).map(|c| [c[0], c[1], c[2]]).collect())
@@ -668,7 +669,7 @@ impl<'d> Renderer<'d> {
             films.push(TrialFilm {
                 sum: rgb(&self.sum)?,
                 sum_odd: rgb(&self.sum_odd)?,
-                samples: strategy::TRIAL_SPP,
+                samples: plan.samples,
                 seconds,
             });
             self.clear_film()?;

@@ -9,8 +9,9 @@
 //! black emitters, where paths end anyway, it only adds variance (a threshold of 0.3 reaches
 //! the same error 2.4 times sooner there). BENCHMARKS.md has the figures.
 //!
-//! How: before the render, every candidate renders [`TRIAL_SPP`] samples of the same sparse set
-//! of rows (every `row_step`-th row, so the trial sees the whole picture). Each pixel's sample
+//! How: before the render, every candidate renders the same samples of the same set of rows
+//! ([`trial_plan`]: at least [`TRIAL_SPP`] samples on every fourth row, so the trial sees the
+//! whole picture; more rows and samples the longer the render, within [`TRIAL_SHARE`] of it). Each pixel's sample
 //! variance over the common denominator (the candidates' mean value squared, plus ε, as relMSE
 //! has) is the relative variance of one sample; times the measured seconds per sample it is
 //! relMSE × seconds, the figure `clpt plot` compares, whose lower value reaches any error
@@ -30,6 +31,9 @@ use std::fmt;
 /// where the render measures 1.9).
 pub const TRIAL_SPP: u32 = 8;
 
+/// The most samples per pixel a trial takes, however long the render.
+const MAX_TRIAL_SPP: u32 = 64;
+
 /// Roulette thresholds `auto` tries: 1 (pbrt-v4's throughput roulette) and 0.3, which lets
 /// paths run on until their weight has fallen below 0.3 (see kernels/pathtracer.cl).
 pub const RR_THRESHOLDS: [f32; 2] = [1.0, 0.3];
@@ -37,7 +41,7 @@ pub const RR_THRESHOLDS: [f32; 2] = [1.0, 0.3];
 /// The trial takes at most about this share of a render given a sample count.
 const TRIAL_SHARE: f64 = 0.06;
 
-/// The coarsest row sampling of the trial: every fourth row at most.
+/// The row sampling of the shortest trials: every fourth row.
 const MIN_ROW_STEP: u32 = 4;
 
 /// `--light-sampling`.
@@ -133,16 +137,44 @@ pub fn candidates(light: LightSampling, roulette: Roulette, has_lights: bool) ->
         .collect()
 }
 
-/// Every `row_step`-th row takes part in the trial: the coarsest step that keeps the trial of
-/// `candidates` strategies within [`TRIAL_SHARE`] of a render of `spp` samples (every fourth
-/// row at most, and at least one row).
-pub fn trial_row_step(candidates: usize, spp: Option<u32>, height: u32) -> u32 {
-    let work = (candidates as u32 * TRIAL_SPP) as f64; // in full-image samples per pixel
-    let step = match spp {
-        Some(n) => (work / (TRIAL_SHARE * n as f64)).ceil() as u32,
-        None => MIN_ROW_STEP,
+/// Which rows and how many samples each candidate renders in the trial.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TrialPlan {
+    /// Every `row_step`-th row takes part.
+    pub row_step: u32,
+    /// Samples per pixel, a multiple of [`TRIAL_SPP`] (whole pairs of groups of four).
+    pub samples: u32,
+}
+
+/// The trial's size: each candidate gets [`TRIAL_SHARE`] of a render of `spp` samples divided
+/// among the `candidates`, in full-image samples per pixel. Below [`TRIAL_SPP`] samples on every
+/// fourth row's worth, the rows thin out (never fewer than one); above it, every row takes part
+/// first, then the samples grow by whole [`TRIAL_SPP`]s up to [`MAX_TRIAL_SPP`]: a long render
+/// affords a trial precise enough to tell estimators apart by 10%. Without a sample count (a
+/// time limit or a target error) the trial is the shortest: TRIAL_SPP samples on every fourth
+/// row.
+pub fn trial_plan(candidates: usize, spp: Option<u32>, height: u32) -> TrialPlan {
+    let budget = spp.map_or(0.0, |n| {
+        TRIAL_SHARE * f64::from(n) / candidates.max(1) as f64
+    });
+    let least = f64::from(TRIAL_SPP) / f64::from(MIN_ROW_STEP);
+    let (row_step, samples) = if budget <= least {
+        let step = if budget > 0.0 {
+            (f64::from(TRIAL_SPP) / budget).ceil() as u32
+        } else {
+            MIN_ROW_STEP
+        };
+        (step, TRIAL_SPP)
+    } else if budget < f64::from(TRIAL_SPP) {
+        ((f64::from(TRIAL_SPP) / budget).ceil() as u32, TRIAL_SPP)
+    } else {
+        let groups = (budget / f64::from(TRIAL_SPP)) as u32;
+        (1, (groups * TRIAL_SPP).min(MAX_TRIAL_SPP))
     };
-    step.max(MIN_ROW_STEP).min(height.max(1))
+    TrialPlan {
+        row_step: row_step.clamp(1, height.max(1)),
+        samples,
+    }
 }
 
 /// What the trial measured of one candidate.
@@ -242,12 +274,13 @@ pub struct TrialFilm {
 const MISSED_SIGMAS: f64 = 3.0;
 
 /// An unbiased estimate of the variance of one sample of the render's stratified estimate, in
-/// one pixel and channel, from the sums of the two groups of four: with σ_k² the variance of
-/// sub-pixel k, the groups' difference has expected square 2 Σ σ_k², and one sample of the
-/// stratified estimate counts for (1/4) Σ σ_k².
-fn stratified_variance(sum: f32, sum_odd: f32) -> f64 {
-    let difference = f64::from(sum) - 2.0 * f64::from(sum_odd);
-    difference * difference / 8.0
+/// one pixel and channel, from the sums of its n samples and of those of the odd groups of four
+/// (n/2 of them): with σ² = (1/4) Σ σ_k² (σ_k² the variance of sub-pixel k), each half's mean
+/// has variance σ² / (n/2), so their difference squared has expectation 4σ² / n.
+fn stratified_variance(sum: f32, sum_odd: f32, n: f64) -> f64 {
+    let half = n / 2.0;
+    let difference = (f64::from(sum) - 2.0 * f64::from(sum_odd)) / half;
+    difference * difference * n / 4.0
 }
 
 /// The image mean of a trial film (summed over pixels and channels) and its standard error.
@@ -257,7 +290,7 @@ fn total_mean(film: &TrialFilm) -> (f64, f64) {
     for (s, o) in film.sum.iter().zip(&film.sum_odd) {
         for c in 0..3 {
             mean += f64::from(s[c]) / n;
-            var += stratified_variance(s[c], o[c]) / n;
+            var += stratified_variance(s[c], o[c], n) / n;
         }
     }
     (mean, var.sqrt())
@@ -344,7 +377,7 @@ pub fn choose(
             let mut rel = 0.0;
             for ((s, o), d) in film.sum.iter().zip(&film.sum_odd).zip(&denominator) {
                 for c in 0..3 {
-                    rel += stratified_variance(s[c], o[c]) / d[c];
+                    rel += stratified_variance(s[c], o[c], n) / d[c];
                 }
             }
             Measured {
@@ -425,13 +458,22 @@ mod tests {
 
     #[test]
     fn the_trial_takes_a_small_share_of_a_render() {
-        // 4 candidates x 8 samples on every 4th row: 8 samples per pixel of work.
-        assert_eq!(trial_row_step(4, None, 480), 4);
-        assert_eq!(trial_row_step(4, Some(1000), 480), 4);
-        // 64 samples: at most 6% of them, 3.84 samples' worth: every 9th row.
-        assert_eq!(trial_row_step(4, Some(64), 480), 9);
+        let plan = |spp, height| {
+            let p = trial_plan(4, spp, height);
+            (p.row_step, p.samples)
+        };
+        // No sample count: 8 samples on every 4th row.
+        assert_eq!(plan(None, 480), (4, 8));
+        // 64 samples: 6% of them, 0.96 samples' worth a candidate: every 9th row.
+        assert_eq!(plan(Some(64), 480), (9, 8));
+        // 300: 4.5 samples' worth, every second row; 800: 12, every row.
+        assert_eq!(plan(Some(300), 480), (2, 8));
+        assert_eq!(plan(Some(800), 480), (1, 8));
+        // 4096: 61 samples' worth, 56 on every row; and never more than 64.
+        assert_eq!(plan(Some(4096), 480), (1, 56));
+        assert_eq!(plan(Some(1 << 20), 480), (1, 64));
         // Never more rows apart than the image has.
-        assert_eq!(trial_row_step(4, Some(1), 5), 5);
+        assert_eq!(plan(Some(1), 5), (5, 8));
     }
 
     /// A trial film of `pixels` pixels whose two groups of four sum to `even` and `odd` in
