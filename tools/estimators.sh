@@ -3,7 +3,7 @@
 # samples with the defaults (the trial's choice, `auto`), and with each fixed setting: light
 # sampling on or off, roulette below 1 (the rule of earlier versions) or 0.3. One CSV row a run:
 #   scene,setting,spp,seconds,relmse_estimate,relmse_x_seconds,estimator
-# The `off,1` row is what `--no-nee` gave before this issue, `on,1` the earlier default.
+# The `off:1` row is what `--no-nee` gave before this issue, `on:1` the earlier default.
 #   tools/estimators.sh CLPT OUT.csv SCENE:SPP[:W:H] ...
 # CLPT is the binary; the device comes from $CLPT_DEVICE.
 set -euo pipefail
@@ -15,11 +15,11 @@ for entry in "$@"; do
   IFS=: read -r file spp w h <<< "$entry"
   size=()
   [ -n "${w:-}" ] && size=(--width "$w" --height "$h")
-  for setting in auto on,1 off,1 on,0.3 off,0.3; do
+  for setting in auto on:1 off:1 on:0.3 off:0.3; do
     if [ "$setting" = auto ]; then
       flags=()
     else
-      flags=(--light-sampling "${setting%,*}" --rr-threshold "${setting#*,}")
+      flags=(--light-sampling "${setting%:*}" --rr-threshold "${setting#*:}")
     fi
     "$clpt" render "$file" "${size[@]}" --spp "$spp" --seed 1 -q "${flags[@]}" \
       -o "$tmp/image.pfm" --report "$tmp/report.csv" 2> "$tmp/log" || { cat "$tmp/log"; exit 1; }

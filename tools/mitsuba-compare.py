@@ -1,0 +1,170 @@
+#!/usr/bin/env python3
+"""clpt and Mitsuba 3 side by side at equal time on scenes/ceiling_room.txt, for BENCHMARKS.md.
+
+The room is written out for Mitsuba here (rectangles for the six walls, the ceiling an area
+emitter with a black BSDF, three diffuse spheres, the same camera: the original's `angle` a
+gives a vertical field of view of 2 atan(a / 2)). Each renderer renders the room for about
+--seconds, and a reference of --reference-factor times its samples with another seed; the
+error of each render is measured against its own renderer's reference (`clpt compare`), so
+small differences between the two renderers' pictures (pixel filters, the 2x2 sub-pixels) do
+not count as error. A reference's own error adds to what is measured, by about 1/factor of it
+for the same estimator: the table subtracts that. Mitsuba runs its `path` integrator with its
+defaults (emitter sampling with MIS, Russian roulette from depth 5, no depth limit), the LLVM
+variant on the CPU or the CUDA variant with --cuda.
+
+    pip install mitsuba   # the LLVM variant needs libLLVM >= 16 (Debian: libllvm19)
+    python3 tools/mitsuba-compare.py --clpt target/release/clpt --seconds 10 --out /tmp/cmp
+"""
+import argparse
+import os
+import re
+import subprocess
+import time
+
+import numpy as np
+
+
+def rectangle(mi, center, normal, up, half_x, half_y, bsdf, emitter=None):
+    """A Mitsuba rectangle centred at `center`, facing `normal`, half_x along up x normal and
+    half_y along `up`."""
+    center, normal, up = (np.array(v, dtype=float) for v in (center, normal, up))
+    to_world = mi.ScalarTransform4f().look_at(
+        origin=center.tolist(), target=(center + normal).tolist(), up=up.tolist()
+    ) @ mi.ScalarTransform4f().scale([half_x, half_y, 1.0])
+    shape = {"type": "rectangle", "to_world": to_world, "bsdf": bsdf}
+    if emitter is not None:
+        shape["emitter"] = emitter
+    return shape
+
+
+def diffuse(rgb):
+    return {"type": "diffuse", "reflectance": {"type": "rgb", "value": rgb}}
+
+
+def ceiling_room(mi, width, height):
+    """scenes/ceiling_room.txt for Mitsuba."""
+    grey, red, blue, green = [0.75] * 3, [0.75, 0.25, 0.25], [0.25, 0.25, 0.75], [0.25, 0.75, 0.25]
+    a = np.radians(30.0)  # the file's `angle`
+    fov = float(np.degrees(2.0 * np.arctan(a / 2.0)))
+    scene = {
+        "type": "scene",
+        "integrator": {"type": "path"},
+        "sensor": {
+            "type": "perspective",
+            "fov_axis": "y",
+            "fov": fov,
+            "to_world": mi.ScalarTransform4f().look_at(
+                origin=[0, 60, 250], target=[0, 60, 249], up=[0, 1, 0]
+            ),
+            "film": {
+                "type": "hdrfilm",
+                "width": width,
+                "height": height,
+                "rfilter": {"type": "box"},
+                "pixel_format": "rgb",
+            },
+            "sampler": {"type": "independent"},
+        },
+        # The room: x in [-100, 100], y in [0, 160], z in [-100, 300].
+        "ceiling": rectangle(
+            mi, [0, 160, 100], [0, -1, 0], [0, 0, 1], 100, 200, diffuse([0, 0, 0]),
+            {"type": "area", "radiance": {"type": "rgb", "value": [0.42, 0.41, 0.4]}},
+        ),
+        "left": rectangle(mi, [-100, 80, 100], [1, 0, 0], [0, 1, 0], 200, 80, diffuse(red)),
+        "right": rectangle(mi, [100, 80, 100], [-1, 0, 0], [0, 1, 0], 200, 80, diffuse(blue)),
+        "floor": rectangle(mi, [0, 0, 100], [0, 1, 0], [0, 0, 1], 100, 200, diffuse(grey)),
+        "back": rectangle(mi, [0, 80, -100], [0, 0, 1], [0, 1, 0], 100, 80, diffuse(grey)),
+        "front": rectangle(mi, [0, 80, 300], [0, 0, -1], [0, 1, 0], 100, 80, diffuse(grey)),
+        "ball1": {"type": "sphere", "center": [-50, 25, -40], "radius": 25, "bsdf": diffuse(grey)},
+        "ball2": {"type": "sphere", "center": [50, 25, 0], "radius": 25, "bsdf": diffuse(grey)},
+        "ball3": {"type": "sphere", "center": [0, 40, -70], "radius": 40, "bsdf": diffuse(green)},
+    }
+    return mi.load_dict(scene)
+
+
+def mitsuba_render(mi, dr, scene, spp, seed, path):
+    start = time.perf_counter()
+    image = mi.render(scene, spp=spp, seed=seed)
+    dr.eval(image)
+    dr.sync_thread()
+    seconds = time.perf_counter() - start
+    mi.util.write_bitmap(path, image, write_async=False)
+    return seconds
+
+
+def clpt_render(clpt, scene, args, path):
+    out = subprocess.run(
+        [clpt, "render", scene, "-q", "-o", path] + args,
+        check=True, capture_output=True, text=True,
+    ).stderr
+    m = re.search(r"(\d+) spp in ([0-9.]+) s", out)
+    return int(m.group(1)), float(m.group(2)), out
+
+
+def relmse(clpt, image, reference):
+    out = subprocess.run(
+        [clpt, "compare", image, reference], check=True, capture_output=True, text=True
+    ).stdout
+    return float(re.search(r"relMSE ([0-9.eE+-]+)", out).group(1))
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--clpt", default="target/release/clpt")
+    p.add_argument("--scene", default="scenes/ceiling_room.txt")
+    p.add_argument("--seconds", type=float, default=10.0)
+    p.add_argument("--reference-factor", type=int, default=16)
+    p.add_argument("--cuda", action="store_true", help="Mitsuba's CUDA variant (a GPU)")
+    p.add_argument("--clpt-args", default="", help="more options for clpt render")
+    p.add_argument("--out", default="mitsuba-compare")
+    args = p.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    import drjit as dr
+    import mitsuba as mi
+
+    mi.set_variant("cuda_ad_rgb" if args.cuda else "llvm_ad_rgb")
+    width, height = 320, 240
+    scene = ceiling_room(mi, width, height)
+    out = lambda name: os.path.join(args.out, name)
+    extra = args.clpt_args.split()
+    k = args.reference_factor
+
+    # Mitsuba: compile its kernels, measure its rate, then the timed render and the reference.
+    mitsuba_render(mi, dr, scene, 4, 7, out("warm.exr"))
+    probe = max(1, int(args.seconds * 0.1 / mitsuba_render(mi, dr, scene, 1, 8, out("warm.exr"))))
+    rate = probe / mitsuba_render(mi, dr, scene, probe, 9, out("warm.exr"))
+    m_spp = max(1, int(rate * args.seconds))
+    m_seconds = mitsuba_render(mi, dr, scene, m_spp, 1, out("mitsuba.exr"))
+    mitsuba_render(mi, dr, scene, m_spp * k, 1000, out("mitsuba-ref.exr"))
+
+    # clpt: the same time, then the reference with another seed.
+    c_spp, c_seconds, log = clpt_render(
+        args.clpt, args.scene, ["--time", str(args.seconds), "--seed", "1", "-v"] + extra,
+        out("clpt.pfm"),
+    )
+    estimator = re.search(r"estimator: (.*)", log).group(1)
+    clpt_render(
+        args.clpt, args.scene, ["--spp", str(c_spp * k), "--seed", "1000"] + extra,
+        out("clpt-ref.pfm"),
+    )
+
+    rows = []
+    for name, image, ref, spp, seconds in [
+        ("clpt (" + estimator + ")", "clpt.pfm", "clpt-ref.pfm", c_spp, c_seconds),
+        ("Mitsuba 3 " + mi.__version__ + " " + mi.variant(), "mitsuba.exr", "mitsuba-ref.exr",
+         m_spp, m_seconds),
+    ]:
+        measured = relmse(args.clpt, out(image), out(ref))
+        e = measured / (1.0 + 1.0 / k)  # less the reference's own error
+        rows.append((name, spp, seconds, e, e * seconds))
+    print(f"{args.scene}, {width}x{height}, about {args.seconds} s each; error against each "
+          f"renderer's own {k}x reference")
+    print("| renderer | spp | seconds | relMSE | relMSE x s |")
+    print("|---|---|---|---|---|")
+    for name, spp, seconds, e, es in rows:
+        print(f"| {name} | {spp} | {seconds:.2f} | {e:.3e} | {es:.3e} |")
+    print(f"Mitsuba's relMSE x s over clpt's: {rows[1][4] / rows[0][4]:.2f}")
+
+
+if __name__ == "__main__":
+    main()
