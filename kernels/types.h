@@ -184,13 +184,16 @@ typedef struct Light {
     float corner[3];       /* a sphere's centre; a square's or a triangle's first corner */
     float edge1[3];        /* a square's or a triangle's edges from that corner */
     float edge2[3];
-    float normal[3];       /* unit; a plane emits to this side, a triangle to both */
+    float normal[3];       /* unit; a plane emits to this side, a triangle to both; a
+                            * sphere's visible cap is about it */
     float radius;          /* a sphere's */
-    float area;            /* a square's or a triangle's */
+    float area;            /* a square's or a triangle's; a sphere cap's */
     float prob;            /* the probability that light sampling picks this entry */
     float cdf;             /* the sum of prob up to and including this entry */
+    float cap_height;      /* a sphere's visible cap: the points q with
+                            * dot(q - corner, normal) >= radius - cap_height; 0: all of it */
 } Light;
-CLPT_ASSERT_SIZE(Light, 80);
+CLPT_ASSERT_SIZE(Light, 84);
 
 /* Everything a render launch needs besides the object arrays, uploaded once per render. */
 typedef struct RenderParams {

@@ -503,3 +503,125 @@ fn random_points_of_the_emitters_in_the_room_lie_in_their_clipped_regions() {
     let front = DVec3::new(-1000.0, -1000.0, 1000.0);
     assert_holds_part_in_room(plane_light(&packed.lights, 1), front, x, y, "front wall");
 }
+
+/// Sphere lights sunk into walls (lights.rs, `visible_cap`): smallpt's light, a sphere of radius
+/// 600 sunk into the ceiling (itself a sphere of radius 1e5 around the room) all but 0.27, is
+/// sampled over the cap below the ceiling, and carries that cap's area in its power.
+#[test]
+fn smallpt_s_light_is_sampled_over_the_cap_below_the_ceiling() {
+    let packed = pack(&clpt::scene::builtin::scene().unwrap());
+    let l = packed
+        .lights
+        .iter()
+        .find(|l| l.kind == OBJECT_SPHERE)
+        .expect("smallpt's light");
+    let (c, r) = (v(l.corner), f64::from(l.radius));
+    let h = f64::from(l.cap_height);
+    // The ceiling's sphere: centre y = -1e5 + 81.6, radius 1e5; the light's bottom at 81.33.
+    let depth = (c.y - r) - (81.6 - 1e5 + 1e5);
+    assert!(depth < 0.0, "the light pokes below the ceiling");
+    assert!(near(v(l.normal), DVec3::NEG_Y, 1e-6), "axis {:?}", l.normal);
+    // The cap reaches from the light's bottom up to the ceiling, and a little tolerance more.
+    assert!(
+        h > -depth && h < -depth + 0.1,
+        "cap height {h}, depth {}",
+        -depth
+    );
+    assert!(close(f64::from(l.area), 2.0 * PI * r * h, 1e-6));
+    // Every point of the light below the ceiling (the rim of the cap included) is in the cap.
+    let mut rng = SmallRng::seed_from_u64(5);
+    let mut below = 0;
+    for _ in 0..200_000 {
+        let q = c + DVec3::new(
+            rng.random::<f64>() - 0.5,
+            -rng.random::<f64>(),
+            rng.random::<f64>() - 0.5,
+        )
+        .normalize()
+            * r;
+        let ceiling = DVec3::new(50.0, 81.6 - 1e5, 81.6);
+        if (q - ceiling).length() < 1e5 {
+            below += 1;
+            assert!(
+                (q - c).dot(DVec3::NEG_Y) >= r - h,
+                "{q} below the ceiling, off the cap"
+            );
+        }
+    }
+    assert!(below > 0, "no point below the ceiling drawn");
+}
+
+/// A sphere light wholly outside the closed room, or inside an opaque ball the camera is outside
+/// of, is dropped; one free in the room keeps all of itself; one poking through a wall of the
+/// room is cut at it.
+#[test]
+fn sphere_lights_keep_what_the_room_and_opaque_balls_leave_visible() {
+    let text = |extra: &str| {
+        format!(
+            "PerspectiveCamera {{ center 0 1 3 direction 0 0 -1 angle 40 width 8 height 6 }}\n\
+             Materials {{ numMaterials 3 Material {{ color 0.5 0.5 0.5 }} \
+               Material {{ emission 4 4 4 }} Material {{ color 0.5 0.5 0.5 type refr }} }}\n\
+             Group {{ numObjects 10 MaterialIndex 0 \
+               Plane {{ normal 0 1 0 offset 0 range 10 }} Plane {{ normal 0 -1 0 offset -4 range 10 }} \
+               Plane {{ normal 1 0 0 offset -2 range 10 }} Plane {{ normal -1 0 0 offset -2 range 10 }} \
+               Plane {{ normal 0 0 1 offset -2 range 10 }} Plane {{ normal 0 0 -1 offset -5 range 10 }} \
+               Sphere {{ center 1 1 -1 radius 0.8 }} {extra} }}\n"
+        )
+    };
+    let sphere = |scene: &str| {
+        let scene =
+            clpt::scene::parse::parse_scene(scene, "caps").unwrap_or_else(|e| panic!("{e}"));
+        let packed = pack(&scene);
+        packed
+            .lights
+            .iter()
+            .find(|l| l.kind == OBJECT_SPHERE)
+            .copied()
+    };
+    // Free in the room: the whole sphere.
+    let free = sphere(&text(
+        "MaterialIndex 1 Sphere { center -1 2 -1 radius 0.3 }",
+    ))
+    .unwrap();
+    assert_eq!(free.cap_height, 0.0);
+    // Sunk 0.5 into the ceiling (y = 4): the cap below it, 0.3 high (and tolerance).
+    let sunk = sphere(&text(
+        "MaterialIndex 1 Sphere { center -1 4.1 -1 radius 0.4 }",
+    ))
+    .unwrap();
+    assert!(near(v(sunk.normal), DVec3::NEG_Y, 1e-9), "{sunk:?}");
+    assert!((f64::from(sunk.cap_height) - 0.3).abs() < 1e-3, "{sunk:?}");
+    // Poking only 0.2 through: more than a hemisphere left, sampled whole (by its cone).
+    let poking = sphere(&text(
+        "MaterialIndex 1 Sphere { center -1 3.8 -1 radius 0.4 }",
+    ))
+    .unwrap();
+    assert_eq!(poking.cap_height, 0.0);
+    // Inside the opaque ball at (1, 1, -1): nothing to see; inside a glass ball: all of it.
+    assert!(sphere(&text("MaterialIndex 1 Sphere { center 1 1 -1 radius 0.3 }")).is_none());
+    let glass = text(
+        "MaterialIndex 2 Sphere { center -1 1 -1 radius 0.8 } \
+         MaterialIndex 1 Sphere { center -1 1 -1 radius 0.3 }",
+    );
+    assert_eq!(sphere(&glass).unwrap().cap_height, 0.0);
+    // Mostly buried in the opaque ball (centre 0.7 from the ball's, radii 0.2 and 0.8): the cap
+    // outside it, up to the circle where the spheres meet, 0.2 - (0.8² - 0.7² - 0.2²) / 1.4 =
+    // 0.1214 high.
+    let buried = sphere(&text(
+        "MaterialIndex 1 Sphere { center 1 1.7 -1 radius 0.2 }",
+    ))
+    .unwrap();
+    assert!(near(v(buried.normal), DVec3::Y, 1e-6), "{buried:?}");
+    let h = 0.2 - (0.8f64 * 0.8 - 0.7 * 0.7 - 0.2 * 0.2) / 1.4;
+    assert!(
+        (f64::from(buried.cap_height) - h).abs() < 1e-4,
+        "{buried:?}, {h}"
+    );
+    // Wholly outside the room (beyond the ceiling): dropped.
+    assert!(
+        sphere(&text(
+            "MaterialIndex 1 Sphere { center -1 5 -1 radius 0.3 }"
+        ))
+        .is_none()
+    );
+}

@@ -245,8 +245,11 @@ pub struct Light {
     pub area: f32,
     pub prob: f32,
     pub cdf: f32,
+    /// A sphere's visible cap: its height along `normal` from the sphere's far side towards
+    /// it; 0 for the whole sphere (src/device/lights.rs, `visible_cap`).
+    pub cap_height: f32,
 }
-const _: () = assert!(size_of::<Light>() == 80);
+const _: () = assert!(size_of::<Light>() == 84);
 
 /// `Plane` in `types.h`.
 #[repr(C)]
@@ -355,6 +358,7 @@ pub const LAYOUT: &[StructLayout] = &[
         kind => "kind", index => "index", triangle => "triangle", material => "material",
         corner => "corner", edge1 => "edge1", edge2 => "edge2", normal => "normal",
         radius => "radius", area => "area", prob => "prob", cdf => "cdf",
+        cap_height => "cap_height",
     }),
     layout!(RevSurface, "RevSurface", {
         first_point => "first_point", num_segments => "num_segments", degree => "degree",

@@ -74,6 +74,28 @@
 //! rounding error of a face's edge on its square's boundary, as it could before; only such
 //! paths, of negligible measure, can reach what clipping leaves out. When no closed room holds
 //! the camera, nothing is clipped.
+//!
+//! # Sphere lights sunk into walls: the visible cap
+//!
+//! smallpt's light is a sphere of radius 600 sunk all but 0.27 into the ceiling: sampled by the
+//! cone it subtends, nearly every light sample aims at the part buried in the ceiling. Two kinds
+//! of surface hide part of a sphere light from every path, and each leaves it a cap:
+//! - a wall of the closed room (above): no path vertex leaves the room, so what lies beyond a
+//!   wall's plane is unseen; a plane cuts a sphere in a cap;
+//! - another sphere S, untransformed, whose material only reflects (as a wall's), when the eye
+//!   and the whole lens lie strictly on one side of it: a path reaching S is sent back to the
+//!   side it came from (its spawn point offset to that side), so no vertex ever lies on the
+//!   other side, and a segment from a vertex to a point of the light on the other side crosses
+//!   S and is blocked. Two spheres meet in a circle, so what lies on the camera's side of S is a
+//!   cap. smallpt's walls are such spheres, of radius 1e5, with the room inside them.
+//!
+//! Each such cap holds every point of the light that any path can see, so the smallest of them
+//! does too (`visible_cap`); it is grown by the room's tolerance, or by 4 f32 ulps of S's
+//! coordinates (the device's sphere is S rounded to f32), and a light no path can see is
+//! dropped. A cap of at most a hemisphere is sampled uniformly by area (kernels/nee.h), its
+//! `area` the cap's, its power π Le times it; the light's pdf for a BSDF hit there is the same
+//! area density. Larger caps are sampled as the whole sphere, by its cone, which serves them
+//! better (a cap's back side, seen from a point, is hidden by its front).
 
 use super::layout::{self, Light, Material, MeshDesc, TextureMap, Transform};
 use super::upload::f32x3;
@@ -118,15 +140,28 @@ pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
             continue; // an ellipsoid
         };
         let radius = f64::from(s.radius) * scale;
-        let light = Light {
+        let center = affine.point(dvec(s.center));
+        let mut light = Light {
             kind: layout::OBJECT_SPHERE,
             index: i as u32,
             material: s.material,
-            corner: f32x3(affine.point(dvec(s.center))),
+            corner: f32x3(center),
             radius: radius as f32,
             ..Light::default()
         };
-        push(light, PI * le * 4.0 * PI * radius * radius);
+        // What no path can see of it stays out of its samples (module doc).
+        let mut area = 4.0 * PI * radius * radius;
+        match visible_cap(scene, room, i, center, radius) {
+            Visible::Nothing => continue,
+            Visible::Whole => {}
+            Visible::Cap { axis, height } => {
+                light.normal = f32x3(axis);
+                light.cap_height = height as f32;
+                area = 2.0 * PI * radius * height;
+                light.area = area as f32;
+            }
+        }
+        push(light, PI * le * area);
     }
     for (i, p) in scene.planes.iter().enumerate() {
         let Some(le) = constant_emission(scene.materials, p.material) else {
@@ -345,14 +380,7 @@ impl Room {
 
 /// The smallest closed room of walls around the camera, if there is one (module doc).
 pub fn closed_room(scene: &LightSources) -> Option<Room> {
-    let cam = scene.camera;
-    let mut eye = vec![cam.origin];
-    let r = cam.lens_radius.abs();
-    if r > 0.0 {
-        for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-            eye.push(cam.origin + cam.lens_u * (r * su) + cam.lens_v * (r * sv));
-        }
-    }
+    let eye = eye_points(scene.camera);
     // Candidate walls: (side, plane coordinate, range, plane index); side 2k + 1 for x_k <= c.
     let mut walls = Vec::new();
     for (i, p) in scene.planes.iter().enumerate() {
@@ -436,6 +464,102 @@ pub fn closed_room(scene: &LightSources) -> Option<Room> {
             });
         }
     }
+}
+
+/// What paths can see of a sphere light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Visible {
+    Nothing,
+    Whole,
+    /// The points q of the sphere with (q - centre)·axis >= radius - height, height < radius.
+    Cap {
+        axis: DVec3,
+        height: f64,
+    },
+}
+
+/// The part of sphere light `light` (centre c, radius r) that paths can see (module doc, "Sphere
+/// lights sunk into walls"): the smallest of the caps that the room's walls and the other
+/// opaque spheres leave it, when that is at most a hemisphere (larger caps are sampled as the
+/// whole sphere, by the cone it subtends, which serves them better).
+pub fn visible_cap(
+    scene: &LightSources,
+    room: Option<&Room>,
+    light: usize,
+    c: DVec3,
+    r: f64,
+) -> Visible {
+    // (axis, a): the visible points are those with (q - c)·axis >= a.
+    let mut best: Option<(DVec3, f64)> = None;
+    let mut consider = |axis: DVec3, a: f64| {
+        if best.is_none_or(|(_, b)| a > b) {
+            best = Some((axis, a));
+        }
+    };
+    if let Some(room) = room {
+        // The room grown by its tolerance, as emitters are clipped to it.
+        for k in 0..3 {
+            let unit = DVec3::AXES[k];
+            consider(unit, room.lo[k] - room.tolerance - c[k]);
+            consider(-unit, c[k] - room.hi[k] - room.tolerance);
+        }
+    }
+    let eye = eye_points(scene.camera);
+    for (j, s) in scene.spheres.iter().enumerate() {
+        let Some(m) = scene.materials.get(s.material as usize) else {
+            continue;
+        };
+        if j == light || s.transform != layout::TRANSFORM_NONE || !reflects_only(scene, m) {
+            continue;
+        }
+        let (c2, r2) = (dvec(s.center), f64::from(s.radius));
+        // Rounding of the device's sphere (f32 centre, double-float distance test, refined
+        // hits): a few f32 ulps of its coordinates.
+        let tolerance = 4.0 * f64::from(f32::EPSILON) * (c2.abs().max_element() + r2);
+        let inside = |p: &DVec3| (*p - c2).length() < r2 - tolerance;
+        let outside = |p: &DVec3| (*p - c2).length() > r2 + tolerance;
+        let d = (c2 - c).length();
+        if d.is_nan() || d <= 0.0 {
+            // Concentric: the light lies wholly on one side of S.
+            let light_inside = r < r2 - tolerance;
+            let light_outside = r > r2 + tolerance;
+            if (light_inside && eye.iter().all(outside))
+                || (light_outside && eye.iter().all(inside))
+            {
+                return Visible::Nothing;
+            }
+            continue;
+        }
+        let u = (c2 - c) / d;
+        // A point q of the light is inside S iff (q - c)·u > a0 (|q - c2|² = r² + d² - 2 d (q - c)·u).
+        let a0 = ((d - r2) * (d + r2) + r * r) / (2.0 * d);
+        if eye.iter().all(inside) {
+            consider(u, a0 - tolerance); // paths stay inside S
+        } else if eye.iter().all(outside) {
+            consider(-u, -a0 - tolerance); // paths stay outside S
+        }
+    }
+    match best {
+        Some((_, a)) if a >= r => Visible::Nothing,
+        Some((axis, a)) if a > 0.0 => Visible::Cap {
+            axis,
+            height: r - a,
+        },
+        _ => Visible::Whole,
+    }
+}
+
+/// The camera's eye point, and for a thin lens the corners of the square around it that holds
+/// the lens: every primary ray starts in their convex hull.
+fn eye_points(cam: &CameraBasis) -> Vec<DVec3> {
+    let mut eye = vec![cam.origin];
+    let r = cam.lens_radius.abs();
+    if r > 0.0 {
+        for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            eye.push(cam.origin + cam.lens_u * (r * su) + cam.lens_v * (r * sv));
+        }
+    }
+    eye
 }
 
 /// Whether every point of a surface of material m reflects paths back to the side they came
