@@ -1,5 +1,6 @@
 #!/bin/bash
-# Time to relMSE 1e-2 and 1e-3 with light sampling (NEE) and without (pure path tracing), on the
+# Time to relMSE 1e-2 and 1e-3 with light sampling (NEE) and without (pure path tracing), both with
+# roulette below 1 (the rule of issue 6), on the
 # three scenes of tests/convergence.rs, for BENCHMARKS.md: per scene a reference (NEE, another
 # seed), then one run of each strategy against it, and `clpt plot` of their reports.
 #   tools/error-vs-time.sh refs  CLPT OUT W H SECONDS          # references only
@@ -14,14 +15,14 @@ for entry in "${scenes[@]}"; do
   name=${entry%%:*} file=${entry#*:}
   size=(--width "$w" --height "$h" -q)
   if [ "$mode" = refs ]; then
-    "$clpt" render "$file" "${size[@]}" --time "$6" --seed 1000 -o "$out/$name-ref.pfm" \
+    "$clpt" render "$file" "${size[@]}" --time "$6" --seed 1000 --light-sampling on --rr-threshold 1 -o "$out/$name-ref.pfm" \
       --report "$out/$name-ref.csv"
     echo "$name reference: $(tail -1 "$out/$name-ref.csv")"
   else
     refs=$8
-    "$clpt" render "$file" "${size[@]}" --time "$6" --seed 1 --reference "$refs/$name-ref.pfm" \
+    "$clpt" render "$file" "${size[@]}" --time "$6" --seed 1 --light-sampling on --rr-threshold 1 --reference "$refs/$name-ref.pfm" \
       --report "$out/$name-nee.csv" -o "$out/$name-nee.png"
-    "$clpt" render "$file" "${size[@]}" --time "$7" --seed 2 --no-nee \
+    "$clpt" render "$file" "${size[@]}" --time "$7" --seed 2 --light-sampling off --rr-threshold 1 \
       --reference "$refs/$name-ref.pfm" --report "$out/$name-pt.csv" -o "$out/$name-pt.png"
     ref_error=$(tail -1 "$refs/$name-ref.csv" | cut -d, -f6)
     echo "## $name, ${w}x$h, reference relMSE $ref_error (subtracted)"
