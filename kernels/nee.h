@@ -95,6 +95,15 @@ inline float light_cosine(__global const Light* l, float3 d) {
  * that reaches it at distance t. 0 where it would not have been (p inside a sphere, a square
  * seen from behind). */
 inline float light_pdf(__global const Light* l, float3 p, float3 d, float t) {
+    if (l->kind == OBJECT_SPHERE && l->cap_height > 0.0f) {
+        /* Uniform over the visible cap's area (src/device/lights.rs `visible_cap`); 0 off it,
+         * where light sampling never lands. */
+        const float3 c = vload3(0, l->corner);
+        const float3 n = (p + d * t - c) / l->radius;
+        const float cos_l = -dot(n, d);
+        const bool on_cap = dot(n, vload3(0, l->normal)) * l->radius >= l->radius - l->cap_height;
+        return on_cap && cos_l > 0.0f ? l->prob * t * t / (cos_l * l->area) : 0.0f;
+    }
     if (l->kind == OBJECT_SPHERE) {
         const float3 c = vload3(0, l->corner);
         const float d2 = dot(c - p, c - p);
@@ -153,7 +162,28 @@ inline float3 sample_light(const Scene* sc, Surface s, float3 facing, float3 fac
     __global const Light* l = &sc->lights[pick];
     float3 wi, q, q_error;
     float pdf;
-    if (l->kind == OBJECT_SPHERE) {
+    if (l->kind == OBJECT_SPHERE && l->cap_height > 0.0f) {
+        /* The visible cap, uniformly by area: a sphere's area is uniform in height along any
+         * axis (Archimedes), so the height below the cap's top is cap_height u.y. */
+        const float3 c = vload3(0, l->corner), axis = vload3(0, l->normal);
+        const float r = l->radius;
+        const float below = l->cap_height * u.y;
+        const float rho = sqrt(fmax(0.0f, below * (2.0f * r - below)));
+        const float phi = 2.0f * M_PI_F * u.z;
+        float3 t, b;
+        orthonormal_basis(axis, &t, &b);
+        const float3 offset = axis * (r - below) + (t * cos(phi) + b * sin(phi)) * rho;
+        q = c + offset;
+        q_error = error_gamma(6.0f) * (fabs(c) + fabs(offset));
+        const float3 to = q - s.p;
+        const float dist2 = dot(to, to);
+        wi = to / sqrt(dist2);
+        const float cos_l = -dot(offset / r, wi);
+        if (!(cos_l > 0.0f)) {
+            return (float3)(0.0f); /* the cap's far side: its near side hides it */
+        }
+        pdf = l->prob * dist2 / (cos_l * l->area);
+    } else if (l->kind == OBJECT_SPHERE) {
         const float3 c = vload3(0, l->corner);
         const float3 pc = c - s.p;
         const float d2 = dot(pc, pc);

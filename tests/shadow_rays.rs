@@ -145,3 +145,68 @@ fn thousands_of_emitting_triangles_far_away_give_the_light_of_two() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A sphere light sunk into the ceiling of a closed room and into an opaque ball is sampled over
+/// its visible cap (lights.rs `visible_cap`, nee.h): light sampling and pure path tracing give
+/// the same picture, quadrant by quadrant.
+#[test]
+fn a_sunk_sphere_light_sampled_over_its_cap_matches_path_tracing() {
+    let text = "PerspectiveCamera { center 0 1.5 3.5 direction 0 -0.2 -1 angle 50 width 24 height 18 }\n\
+                Materials { numMaterials 4 Material { color 0.6 0.6 0.6 } \
+                  Material { emission 6 6 6 color 0.2 0.2 0.2 } \
+                  Material { color 0.7 0.3 0.3 } Material { color 0.3 0.3 0.7 } }\n\
+                Group { numObjects 10 MaterialIndex 0 \
+                  Plane { normal 0 1 0 offset 0 range 10 } Plane { normal 0 -1 0 offset -3 range 10 } \
+                  Plane { normal 0 0 1 offset -2 range 10 } Plane { normal 0 0 -1 offset -4 range 10 } \
+                  MaterialIndex 2 Plane { normal 1 0 0 offset -2 range 10 } \
+                  MaterialIndex 3 Plane { normal -1 0 0 offset -2 range 10 } \
+                  MaterialIndex 0 Sphere { center 1 0.5 -1 radius 0.5 } \
+                  MaterialIndex 1 Sphere { center 0 3.5 -0.5 radius 0.7 } \
+                  Sphere { center 1.25 0.75 -1 radius 0.2 } \
+                  MaterialIndex 0 Sphere { center -1 0.4 0 radius 0.4 } }\n";
+    let scene = parse_scene(text, "sunk lights").unwrap_or_else(|e| panic!("{e}"));
+    let packed = clpt::device::upload::PackedScene::new(&scene, u64::MAX).unwrap();
+    let caps: Vec<f32> = packed.lights.iter().map(|l| l.cap_height).collect();
+    assert!(
+        caps.len() == 2 && caps.iter().all(|&h| h > 0.0),
+        "both lights should be sampled over caps: {caps:?}"
+    );
+    let film = |light_sampling, spp, seed| {
+        let options = RenderOptions {
+            spp: Some(spp),
+            seed,
+            light_sampling,
+            roulette: Roulette::Threshold(1.0),
+            ..RenderOptions::default()
+        };
+        common::render(&scene, options).0
+    };
+    let with = film(LightSampling::On, 1024, 5);
+    let without = film(LightSampling::Off, 4096, 6);
+    for q in 0..4u32 {
+        let (w, h) = (with.width / 2, with.height / 2);
+        let (x0, y0) = ((q % 2) * w, (q / 2) * h);
+        let stats = |f: &Film| {
+            let (mut m, mut v) = ([0.0f64; 3], [0.0f64; 3]);
+            for y in y0..y0 + h {
+                for x in x0..x0 + w {
+                    let (a, b) = (f.mean(x, y), f.variance_of_mean(x, y));
+                    for c in 0..3 {
+                        m[c] += a[c];
+                        v[c] += b[c];
+                    }
+                }
+            }
+            (m, v)
+        };
+        let ((a, va), (b, vb)) = (stats(&with), stats(&without));
+        for c in 0..3 {
+            let z = (a[c] - b[c]) / (va[c] + vb[c]).sqrt();
+            eprintln!(
+                "quadrant {q} channel {c}: {:.4} against {:.4}, z {z:.2}",
+                a[c], b[c]
+            );
+            assert!(z.abs() < Z_LIMIT, "quadrant {q} channel {c}: z = {z:.2}");
+        }
+    }
+}
