@@ -113,6 +113,8 @@ def main():
     p.add_argument("--clpt", default="target/release/clpt")
     p.add_argument("--scene", default="scenes/ceiling_room.txt")
     p.add_argument("--seconds", type=float, default=10.0)
+    p.add_argument("--width", type=int, default=320)
+    p.add_argument("--height", type=int, default=240)
     p.add_argument("--reference-factor", type=int, default=16)
     p.add_argument("--cuda", action="store_true", help="Mitsuba's CUDA variant (a GPU)")
     p.add_argument("--clpt-args", default="", help="more options for clpt render")
@@ -123,7 +125,7 @@ def main():
     import mitsuba as mi
 
     mi.set_variant("cuda_ad_rgb" if args.cuda else "llvm_ad_rgb")
-    width, height = 320, 240
+    width, height = args.width, args.height
     scene = ceiling_room(mi, width, height)
     out = lambda name: os.path.join(args.out, name)
     extra = args.clpt_args.split()
@@ -138,13 +140,14 @@ def main():
     mitsuba_render(mi, dr, scene, m_spp * k, 1000, out("mitsuba-ref.exr"))
 
     # clpt: the same time, then the reference with another seed.
+    size = ["--width", str(width), "--height", str(height)]
     c_spp, c_seconds, log = clpt_render(
-        args.clpt, args.scene, ["--time", str(args.seconds), "--seed", "1", "-v"] + extra,
+        args.clpt, args.scene, ["--time", str(args.seconds), "--seed", "1", "-v"] + size + extra,
         out("clpt.pfm"),
     )
     estimator = re.search(r"estimator: (.*)", log).group(1)
     clpt_render(
-        args.clpt, args.scene, ["--spp", str(c_spp * k), "--seed", "1000"] + extra,
+        args.clpt, args.scene, ["--spp", str(c_spp * k), "--seed", "1000"] + size + extra,
         out("clpt-ref.pfm"),
     )
 
