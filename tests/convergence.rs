@@ -23,7 +23,6 @@
 
 mod common;
 
-use clpt::render::film::Film;
 use clpt::render::metrics::LinearImage;
 use clpt::render::strategy::LightSampling;
 use clpt::render::{PassReport, RenderOptions};
@@ -120,25 +119,6 @@ fn the_estimate_tracks_the_true_error_and_mse_falls_as_one_over_time() {
     }
 }
 
-/// Mean radiance of the pixels of `film` in the quadrant `q` (0..4), per channel, and the
-/// variance of that mean from the pixels' own sample variances.
-fn quadrant_mean(film: &Film, q: u32) -> ([f64; 3], [f64; 3]) {
-    let (w, h) = (film.width / 2, film.height / 2);
-    let (x0, y0) = ((q % 2) * w, (q / 2) * h);
-    let (mut mean, mut var) = ([0.0; 3], [0.0; 3]);
-    for y in y0..y0 + h {
-        for x in x0..x0 + w {
-            let (m, v) = (film.mean(x, y), film.variance_of_mean(x, y));
-            for c in 0..3 {
-                mean[c] += m[c];
-                var[c] += v[c];
-            }
-        }
-    }
-    let n = (w * h) as f64;
-    (mean.map(|m| m / n), var.map(|v| v / (n * n)))
-}
-
 #[test]
 fn light_sampling_and_pure_path_tracing_agree() {
     let film = |scene: &Scene, nee: bool, spp: u32, seed: u64| {
@@ -165,8 +145,8 @@ fn light_sampling_and_pure_path_tracing_agree() {
         let with = film(&scene, true, 2048, 7);
         let without = film(&scene, false, 8192, 8);
         for q in 0..4 {
-            let (a, va) = quadrant_mean(&with, q);
-            let (b, vb) = quadrant_mean(&without, q);
+            let (a, va) = common::quadrant_mean(&with, q);
+            let (b, vb) = common::quadrant_mean(&without, q);
             for c in 0..3 {
                 let z = (a[c] - b[c]) / (va[c] + vb[c]).sqrt();
                 assert!(

@@ -14,6 +14,15 @@ fn read_testcase(seed: &Path, name: &str) -> String {
     std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
+/// A scene's warnings as (line, column, message).
+fn warnings_of(scene: &Scene) -> Vec<(usize, usize, &str)> {
+    scene
+        .warnings
+        .iter()
+        .map(|w| (w.location.line, w.location.column, w.message.as_str()))
+        .collect()
+}
+
 fn parse_testcase(seed: &Path, name: &str) -> Scene {
     parse_scene(&read_testcase(seed, name), name).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -130,11 +139,7 @@ fn case2_loads_with_its_two_slips_as_warnings() {
         (72, 5)
     );
 
-    let warnings: Vec<(usize, usize, &str)> = scene
-        .warnings
-        .iter()
-        .map(|w| (w.location.line, w.location.column, w.message.as_str()))
-        .collect();
+    let warnings = warnings_of(&scene);
     assert_eq!(
         warnings,
         [
@@ -761,11 +766,7 @@ fn blocks_and_fields_in_any_order_with_comments() {
     assert_eq!(m[1].textures.color, Some(PathBuf::from("c.ppm")));
     assert_eq!((m[2].location.line, m[2].location.column), (14, 5));
 
-    let warnings: Vec<(usize, usize, &str)> = scene
-        .warnings
-        .iter()
-        .map(|w| (w.location.line, w.location.column, w.message.as_str()))
-        .collect();
+    let warnings = warnings_of(&scene);
     assert_eq!(
         warnings,
         [
@@ -958,11 +959,7 @@ fn colours_outside_zero_to_one_are_clamped_with_a_warning() {
     assert_eq!(m[1].color, DVec3::ONE);
     assert_eq!(m[2].color, DVec3::ONE);
     assert_eq!(m[2].emission, DVec3::splat(50.0));
-    let warnings: Vec<(usize, usize, &str)> = scene
-        .warnings
-        .iter()
-        .map(|w| (w.location.line, w.location.column, w.message.as_str()))
-        .collect();
+    let warnings = warnings_of(&scene);
     assert_eq!(
         warnings,
         [

@@ -184,22 +184,10 @@ fn a_sunk_sphere_light_sampled_over_its_cap_matches_path_tracing() {
     let with = film(LightSampling::On, 1024, 5);
     let without = film(LightSampling::Off, 4096, 6);
     for q in 0..4u32 {
-        let (w, h) = (with.width / 2, with.height / 2);
-        let (x0, y0) = ((q % 2) * w, (q / 2) * h);
-        let stats = |f: &Film| {
-            let (mut m, mut v) = ([0.0f64; 3], [0.0f64; 3]);
-            for y in y0..y0 + h {
-                for x in x0..x0 + w {
-                    let (a, b) = (f.mean(x, y), f.variance_of_mean(x, y));
-                    for c in 0..3 {
-                        m[c] += a[c];
-                        v[c] += b[c];
-                    }
-                }
-            }
-            (m, v)
-        };
-        let ((a, va), (b, vb)) = (stats(&with), stats(&without));
+        let ((a, va), (b, vb)) = (
+            common::quadrant_mean(&with, q),
+            common::quadrant_mean(&without, q),
+        );
         for c in 0..3 {
             let z = (a[c] - b[c]) / (va[c] + vb[c]).sqrt();
             eprintln!(

@@ -242,6 +242,26 @@ pub struct Estimator {
     kernel: ocl::Kernel,
 }
 
+/// A set of image rows a launch covers: `count` rows from `start`, every `step`-th (row 0 is the
+/// bottom of the image; kernels/pathtracer.cl `render_pass`).
+#[derive(Clone, Copy, Debug)]
+struct Rows {
+    start: u32,
+    count: u32,
+    step: u32,
+}
+
+impl Rows {
+    /// `count` consecutive rows from `start`.
+    fn band(start: u32, count: u32) -> Rows {
+        Rows {
+            start,
+            count,
+            step: 1,
+        }
+    }
+}
+
 /// A scene loaded on a device, ready to render.
 pub struct Renderer<'d> {
     device: &'d Device,
@@ -535,16 +555,8 @@ impl<'d> Renderer<'d> {
             .kernel
     }
 
-    /// One launch of the current strategy: `rows` rows from row_start, every row_step-th, x
-    /// samples [sample_start, +count).
-    fn launch(
-        &self,
-        row_start: u32,
-        rows: u32,
-        row_step: u32,
-        sample_start: u32,
-        count: u32,
-    ) -> Result<()> {
+    /// One launch of the current strategy: the rows of `rows` x samples [sample_start, +count).
+    fn launch(&self, rows: Rows, sample_start: u32, count: u32) -> Result<()> {
         let round_up = |n: usize| n.div_ceil(GROUP) * GROUP;
         let kernel = self.kernel();
         let set = |name: &'static str, v: u32| {
@@ -554,16 +566,19 @@ impl<'d> Renderer<'d> {
         };
         set("sample_start", sample_start)?;
         set("sample_count", count)?;
-        set("row_start", row_start)?;
-        set("row_count", rows)?;
-        set("row_step", row_step)?;
+        set("row_start", rows.start)?;
+        set("row_count", rows.count)?;
+        set("row_step", rows.step)?;
         // SAFETY: the kernel's buffers are alive (owned by self) and sized for the whole
-        // image; the kernel bounds-checks the padded work-items, and row_start + (rows - 1) *
-        // row_step is below the image's height.
+        // image; the kernel bounds-checks the padded work-items, and every row of `rows` is in
+        // the image.
         unsafe {
             kernel
                 .cmd()
-                .global_work_size([round_up(self.width() as usize), round_up(rows as usize)])
+                .global_work_size([
+                    round_up(self.width() as usize),
+                    round_up(rows.count as usize),
+                ])
                 .local_work_size([GROUP, GROUP])
                 .enq()
         }
@@ -602,44 +617,33 @@ impl<'d> Renderer<'d> {
                 light_sampling,
                 ..current
             })?;
-            self.launch(0, self.height().min(GROUP as u32 * 2), 1, 0, 1)?;
+            self.launch(Rows::band(0, self.height().min(GROUP as u32 * 2)), 0, 1)?;
         }
         self.select(current)?;
         self.clear_film()
     }
 
-    /// Renders `rows` rows from row_start, every row_step-th, samples [sample_start, +count),
-    /// in launches of about the launch target: returns the seconds spent in launches and their
-    /// number.
-    fn render_rows(
-        &self,
-        row_start: u32,
-        rows: u32,
-        row_step: u32,
-        sample_start: u32,
-        count: u32,
-    ) -> Result<(f64, u32)> {
+    /// Renders `rows` x samples [sample_start, +count) in launches of about the launch target
+    /// (a probe, then sized from its rate): returns the seconds spent in launches.
+    fn render_rows(&self, rows: Rows, sample_start: u32, count: u32) -> Result<f64> {
         let target = self.options.launch_target.as_secs_f64().max(1e-3);
-        let mut per_launch = rows.min(GROUP as u32 * 2); // a probe, then sized from its rate
-        let (mut done, mut seconds, mut launches) = (0u32, 0.0, 0u32);
-        while done < rows {
-            let n = per_launch.min(rows - done);
+        let mut per_launch = rows.count.min(GROUP as u32 * 2);
+        let (mut done, mut seconds) = (0u32, 0.0);
+        while done < rows.count {
+            let n = per_launch.min(rows.count - done);
+            let part = Rows {
+                start: rows.start + done * rows.step,
+                count: n,
+                step: rows.step,
+            };
             let t0 = Instant::now();
-            self.launch(
-                row_start + done * row_step,
-                n,
-                row_step,
-                sample_start,
-                count,
-            )?;
+            self.launch(part, sample_start, count)?;
             let secs = t0.elapsed().as_secs_f64().max(1e-6);
             seconds += secs;
-            launches += 1;
             done += n;
-            let rows_per_second = n as f64 / secs;
-            per_launch = ((rows_per_second * target) as u32).clamp(1, rows);
+            per_launch = ((n as f64 / secs * target) as u32).clamp(1, rows.count);
         }
-        Ok((seconds, launches))
+        Ok(seconds)
     }
 
     /// The strategy trial ([`strategy`]): every candidate renders the same sparse rows, the
@@ -657,13 +661,17 @@ impl<'d> Renderer<'d> {
         let plan = strategy::trial_plan(self.candidates.len(), self.options.spp, height);
         let step = plan.row_step;
         let first_row = (step - 1) / 2;
-        let rows = (height - first_row).div_ceil(step);
+        let rows = Rows {
+            start: first_row,
+            count: (height - first_row).div_ceil(step),
+            step,
+        };
         let mut films = Vec::new();
         for candidate in self.candidates.clone() {
             self.select(candidate)?;
-            let (seconds, _) = self.render_rows(first_row, rows, step, 0, plan.samples)?;
+            let seconds = self.render_rows(rows, 0, plan.samples)?;
             let rgb = |buffer: &ocl::Buffer<f32>| -> Result<Vec<[f32; 3]>> {
-                let flat = self.read_rows(buffer, first_row, rows, step)?;
+                let flat = self.read_rows(buffer, rows)?;
                 Ok(flat.chunks_exact(4).map(|c| [c[0], c[1], c[2]]).collect())
             };
             films.push(TrialFilm {
@@ -722,7 +730,7 @@ impl<'d> Renderer<'d> {
             while row < height {
                 let rows = rows_per_launch.min(height - row);
                 let t0 = Instant::now();
-                self.launch(row, rows, 1, spp_done, count)?;
+                self.launch(Rows::band(row, rows), spp_done, count)?;
                 let secs = t0.elapsed().as_secs_f64().max(1e-6);
                 pass_rate = pass_rate.min(rows as f64 * width as f64 * count as f64 / secs);
                 launches += 1;
@@ -789,24 +797,18 @@ impl<'d> Renderer<'d> {
         ))
     }
 
-    /// `rows` rows of a film buffer from first_row, every step-th, in one rectangular read.
-    fn read_rows(
-        &self,
-        buffer: &ocl::Buffer<f32>,
-        first_row: u32,
-        rows: u32,
-        step: u32,
-    ) -> Result<Vec<f32>> {
+    /// The rows of `rows` of a film buffer, in one rectangular read.
+    fn read_rows(&self, buffer: &ocl::Buffer<f32>, rows: Rows) -> Result<Vec<f32>> {
         let row = self.width() as usize * 4; // floats
-        let mut flat = vec![0.0f32; rows as usize * row];
+        let mut flat = vec![0.0f32; rows.count as usize * row];
         let float = std::mem::size_of::<f32>();
         buffer
             .read(&mut flat)
             .rect(
-                [first_row as usize * row, 0, 0],
+                [rows.start as usize * row, 0, 0],
                 [0, 0, 0],
-                [row, rows as usize, 1],
-                step as usize * row * float,
+                [row, rows.count as usize, 1],
+                rows.step as usize * row * float,
                 0,
                 row * float,
                 0,

@@ -356,3 +356,22 @@ pub fn clipped_room_scene(dir: &std::path::Path) -> clpt::scene::Scene {
     objects.push("MaterialIndex 4 Sphere { center 30 25 100 radius 25 }".to_string());
     room_scene("center 0 60 500", &objects)
 }
+
+/// Mean radiance of the pixels of `film` in the quadrant `q` (0..4), per channel, and the
+/// variance of that mean from the pixels' own sample variances.
+pub fn quadrant_mean(film: &clpt::render::film::Film, q: u32) -> ([f64; 3], [f64; 3]) {
+    let (w, h) = (film.width / 2, film.height / 2);
+    let (x0, y0) = ((q % 2) * w, (q / 2) * h);
+    let (mut mean, mut var) = ([0.0; 3], [0.0; 3]);
+    for y in y0..y0 + h {
+        for x in x0..x0 + w {
+            let (m, v) = (film.mean(x, y), film.variance_of_mean(x, y));
+            for c in 0..3 {
+                mean[c] += m[c];
+                var[c] += v[c];
+            }
+        }
+    }
+    let n = (w * h) as f64;
+    (mean.map(|m| m / n), var.map(|v| v / (n * n)))
+}
