@@ -5,12 +5,19 @@
  * src/device/lights.rs: spheres, squares of planes and mesh triangles of constant
  * emission) and their materials. Writes: nothing. Why: a small bright light is found by BSDF
  * sampling only rarely, so pure path tracing converges slowly on it (the original's report says
- * so of its light balls). At every diffuse vertex one light is picked in proportion to its power
- * and sampled (a sphere by the cone it subtends, uniformly in solid angle; a square or a
- * triangle uniformly over its area) and joined by a shadow ray. Paths that hit a listed light by
- * BSDF sampling after such a vertex weigh its emission by the power heuristic, and light samples
- * the complement, so the two strategies add up to one estimate of the same integral: unbiased,
- * as pure path tracing.
+ * so of its light balls). At every vertex whose material is not a delta lobe, one light is
+ * picked in proportion to its power and sampled, and joined by a shadow ray. Paths that hit a
+ * listed light by BSDF sampling after such a vertex weigh its emission by the power heuristic,
+ * and light samples the complement, so the two strategies add up to one estimate of the same
+ * integral: unbiased, as pure path tracing.
+ *
+ * Each emitter kind has a trio, as each material has in material.h (pbrt-v4's Light interface:
+ * SampleLi, PDF_Li, L): light_sample (a sphere by the cone it subtends, uniformly in solid
+ * angle; a square, or the parallelogram clipping leaves of it, and a triangle uniformly over
+ * their area), light_pdf (its solid-angle density, which light_sample returns and BSDF-sampled
+ * hits are weighed with) and light_emitted (constant). sample_light joins them to material.h's
+ * trio, bsdf_eval and bsdf_pdf, and assumes nothing of the surface; tests/chi2.rs checks each
+ * light_sample against light_pdf with the chi-square harness of tests/common/chi2.rs.
  */
 #ifndef CLPT_NEE_H
 #define CLPT_NEE_H
@@ -92,8 +99,9 @@ inline float light_cosine(__global const Light* l, float3 d) {
 }
 
 /* The solid-angle density, from p, with which light sampling picks light l and the direction d
- * that reaches it at distance t. 0 where it would not have been (p inside a sphere, a square
- * seen from behind). */
+ * that reaches it at distance t (light_sample's, the pick included). 0 where it would not have
+ * been (p inside a sphere, a square seen from behind). The caller knows d meets l: a sphere's
+ * density is the same at every direction of its cone. */
 inline float light_pdf(__global const Light* l, float3 p, float3 d, float t) {
     if (l->kind == OBJECT_SPHERE && l->cap_height > 0.0f) {
         /* Uniform over the visible cap's area (src/device/lights.rs `visible_cap`); 0 off it,
@@ -153,95 +161,109 @@ inline bool segment_unblocked(const Scene* sc, Surface s, float3 q, float3 q_err
     return scene_intersect_until(sc, o, d, t_max).kind == HIT_NONE;
 }
 
-/* One light sample from the diffuse surface s (albedo `color`, shading and geometric normals
- * facing the arriving path `facing` and `facing_g`): its MIS-weighted contribution
- * f cos Le w / pdf, or 0. */
-inline float3 sample_light(const Scene* sc, Surface s, float3 facing, float3 facing_g,
-                           float3 color, float4 u) {
+/* Samples light l from p: a direction *wi towards the point *q on it (of rounding-error bound
+ * *q_error) with the solid-angle density *pdf = light_pdf(l, p, *wi, |q - p|), the chance of
+ * picking l included. u.x and u.y place the point. Returns false where l offers p nothing (p
+ * inside a sphere, a square seen from behind, a triangle edge-on). */
+inline bool light_sample(__global const Light* l, float3 p, float2 u, float3* wi, float3* q,
+                         float3* q_error, float* pdf) {
+    if (l->kind == OBJECT_SPHERE && l->cap_height > 0.0f) {
+        /* The visible cap (src/device/lights.rs `visible_cap`), uniformly by area: a sphere's
+         * area is uniform in height along any axis (Archimedes), so the depth below the cap's
+         * top is cap_height u.x. */
+        const float3 c = vload3(0, l->corner), axis = vload3(0, l->normal);
+        const float r = l->radius;
+        const float below = l->cap_height * u.x;
+        const float rho = sqrt(fmax(0.0f, below * (2.0f * r - below)));
+        const float phi = 2.0f * M_PI_F * u.y;
+        float3 t, b;
+        orthonormal_basis(axis, &t, &b);
+        const float3 offset = axis * (r - below) + (t * cos(phi) + b * sin(phi)) * rho;
+        *q = c + offset;
+        *q_error = error_gamma(6.0f) * (fabs(c) + fabs(offset));
+        const float3 to = *q - p;
+        const float dist = sqrt(dot(to, to));
+        *wi = to / dist;
+        /* 0 on the cap's far side, which its near side hides from p. */
+        *pdf = light_pdf(l, p, *wi, dist);
+        return *pdf > 0.0f;
+    }
+    if (l->kind == OBJECT_SPHERE) {
+        /* Uniformly in the cone the sphere subtends (pbrt-v4 section 6.2.4). */
+        const float3 c = vload3(0, l->corner);
+        const float3 pc = c - p;
+        const float d2 = dot(pc, pc);
+        const float r2 = l->radius * l->radius;
+        if (d2 <= r2) {
+            return false;
+        }
+        const float v = u.x * cone_one_minus_cos(r2, d2); /* 1 - cos theta */
+        const float cos_t = 1.0f - v;
+        const float sin_t = sqrt(fmax(0.0f, v * (2.0f - v)));
+        const float phi = 2.0f * M_PI_F * u.y;
+        const float3 w = pc / sqrt(d2);
+        float3 t, b;
+        orthonormal_basis(w, &t, &b);
+        *wi = normalize(t * (sin_t * cos(phi)) + b * (sin_t * sin(phi)) + w * cos_t);
+        /* The nearer point where wi meets the sphere, from the centre's distance to the ray
+         * (no cancellation for tiny spheres far away); a direction that rounding put just past
+         * the rim takes the tangent point. */
+        const float along = dot(pc, *wi);
+        const float3 perp = pc - along * *wi;
+        const float t_hit = along - sqrt(fmax(0.0f, r2 - dot(perp, perp)));
+        const float3 n = normalize(p + *wi * t_hit - c);
+        *q = c + n * l->radius;
+        *q_error = error_gamma(6.0f) * (fabs(c) + fabs(n * l->radius));
+        *pdf = light_pdf(l, p, *wi, t_hit);
+        return true;
+    }
+    /* Uniform over the square, or over the triangle by folding the square's far half onto it
+     * (pbrt-v4 section A.5.5 samples triangles otherwise; this is equally uniform). */
+    float a = u.x, b = u.y;
+    if (l->kind == OBJECT_MESH && a + b > 1.0f) {
+        a = 1.0f - a;
+        b = 1.0f - b;
+    }
+    const float3 corner = vload3(0, l->corner);
+    const float3 e1 = vload3(0, l->edge1) * a, e2 = vload3(0, l->edge2) * b;
+    *q = corner + e1 + e2;
+    /* Rounding of the sum, and of the list's corner and edges against the geometry the
+     * intersection routines see (both rounded to f32 from the same f64 values). */
+    *q_error = error_gamma(6.0f) * (fabs(corner) + fabs(e1) + fabs(e2));
+    const float3 to = *q - p;
+    const float dist = sqrt(dot(to, to));
+    *wi = to / dist;
+    *pdf = light_pdf(l, p, *wi, dist);
+    return *pdf > 0.0f;
+}
+
+/* The radiance light l emits towards any point it is sampled from: its material's emission,
+ * constant over the light (the host lists only emitters of constant emission). */
+inline float3 light_emitted(const Scene* sc, __global const Light* l) {
+    return vload3(0, sc->materials[l->material].emission);
+}
+
+/* One light sample from the surface s of material `type` and `color` (shading normal ns), for
+ * the path arriving from wo: its MIS-weighted contribution f cos Le w / pdf, or 0. Delta
+ * materials take none: their f is 0 at every direction a light sample could choose. */
+inline float3 sample_light(const Scene* sc, Surface s, uint type, float3 color, float3 wo,
+                           float3 ns, float4 u) {
     const uint pick = pick_light(sc, u.x);
     __global const Light* l = &sc->lights[pick];
     float3 wi, q, q_error;
     float pdf;
-    if (l->kind == OBJECT_SPHERE && l->cap_height > 0.0f) {
-        /* The visible cap, uniformly by area: a sphere's area is uniform in height along any
-         * axis (Archimedes), so the height below the cap's top is cap_height u.y. */
-        const float3 c = vload3(0, l->corner), axis = vload3(0, l->normal);
-        const float r = l->radius;
-        const float below = l->cap_height * u.y;
-        const float rho = sqrt(fmax(0.0f, below * (2.0f * r - below)));
-        const float phi = 2.0f * M_PI_F * u.z;
-        float3 t, b;
-        orthonormal_basis(axis, &t, &b);
-        const float3 offset = axis * (r - below) + (t * cos(phi) + b * sin(phi)) * rho;
-        q = c + offset;
-        q_error = error_gamma(6.0f) * (fabs(c) + fabs(offset));
-        const float3 to = q - s.p;
-        const float dist2 = dot(to, to);
-        wi = to / sqrt(dist2);
-        const float cos_l = -dot(offset / r, wi);
-        if (!(cos_l > 0.0f)) {
-            return (float3)(0.0f); /* the cap's far side: its near side hides it */
-        }
-        pdf = l->prob * dist2 / (cos_l * l->area);
-    } else if (l->kind == OBJECT_SPHERE) {
-        const float3 c = vload3(0, l->corner);
-        const float3 pc = c - s.p;
-        const float d2 = dot(pc, pc);
-        const float r2 = l->radius * l->radius;
-        if (d2 <= r2) {
-            return (float3)(0.0f);
-        }
-        const float one_minus = cone_one_minus_cos(r2, d2);
-        const float v = u.y * one_minus; /* 1 - cos theta */
-        const float cos_t = 1.0f - v;
-        const float sin_t = sqrt(fmax(0.0f, v * (2.0f - v)));
-        const float phi = 2.0f * M_PI_F * u.z;
-        const float3 w = pc / sqrt(d2);
-        float3 t, b;
-        orthonormal_basis(w, &t, &b);
-        wi = normalize(t * (sin_t * cos(phi)) + b * (sin_t * sin(phi)) + w * cos_t);
-        pdf = l->prob / (2.0f * M_PI_F * one_minus);
-        /* The nearer point where wi meets the sphere, from the centre's distance to the ray
-         * (no cancellation for tiny spheres far away); a direction that rounding put just past
-         * the rim takes the tangent point. */
-        const float along = dot(pc, wi);
-        const float3 perp = pc - along * wi;
-        const float t_hit = along - sqrt(fmax(0.0f, r2 - dot(perp, perp)));
-        const float3 n = normalize(s.p + wi * t_hit - c);
-        q = c + n * l->radius;
-        q_error = error_gamma(6.0f) * (fabs(c) + fabs(n * l->radius));
-    } else {
-        /* Uniform over the square, or over the triangle by folding the square's far half onto
-         * it (pbrt-v4 section A.5.5 samples triangles otherwise; this is equally uniform). */
-        float a = u.y, b = u.z;
-        if (l->kind == OBJECT_MESH && a + b > 1.0f) {
-            a = 1.0f - a;
-            b = 1.0f - b;
-        }
-        const float3 corner = vload3(0, l->corner);
-        const float3 e1 = vload3(0, l->edge1) * a, e2 = vload3(0, l->edge2) * b;
-        q = corner + e1 + e2;
-        /* Rounding of the sum, and of the list's corner and edges against the geometry the
-         * intersection routines see (both rounded to f32 from the same f64 values). */
-        q_error = error_gamma(6.0f) * (fabs(corner) + fabs(e1) + fabs(e2));
-        const float3 to = q - s.p;
-        const float dist2 = dot(to, to);
-        wi = to / sqrt(dist2);
-        const float cos_l = light_cosine(l, wi);
-        if (!(cos_l > 0.0f)) {
-            return (float3)(0.0f); /* a square seen from behind, or a triangle edge-on */
-        }
-        pdf = l->prob * dist2 / (cos_l * l->area);
+    if (bsdf_is_delta(type) || !light_sample(l, s.p, u.yz, &wi, &q, &q_error, &pdf)) {
+        return (float3)(0.0f);
     }
-    const float pdf_bsdf = diffuse_pdf(wi, facing, facing_g);
+    const float pdf_bsdf = bsdf_pdf(type, wo, wi, s.n, ns);
     if (!(pdf_bsdf > 0.0f && pdf > 0.0f && isfinite(pdf))) {
         return (float3)(0.0f);
     }
     if (!segment_unblocked(sc, s, q, q_error, wi)) {
         return (float3)(0.0f);
     }
-    const float3 le = vload3(0, sc->materials[l->material].emission);
-    return color * le * (pdf_bsdf * mis_weight(pdf, pdf_bsdf) / pdf);
+    const float3 f = bsdf_eval(type, color, wo, wi, s.n, ns);
+    return f * light_emitted(sc, l) * (mis_weight(pdf, pdf_bsdf) / pdf);
 }
 
 #endif

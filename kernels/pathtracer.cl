@@ -12,7 +12,9 @@
  * launch (rows x samples) to about 100 ms and never trip a display watchdog. Paths are
  * iterative (the original unrolled recursion with templates and stopped at depth 8): Russian
  * roulette ends them without bias; `max_depth` is only a safety cap, far past where roulette has
- * ended every path that matters. No sample is clamped.
+ * ended every path that matters. No sample is clamped. A vertex scatters through its material's
+ * trio (material.h: bsdf_sample here, bsdf_eval and bsdf_pdf in light sampling) and samples a
+ * light through the emitter's (nee.h), so neither assumes what the other is.
  */
 #include "types.h"
 #include "vecmath.h"
@@ -103,23 +105,24 @@ inline float3 trace_path(const Scene* sc, uint px, uint py, uint sample) {
 
         const float4 u = rng_next4(&rng);
 #if CLPT_NEE
-        /* Light sampling at every diffuse vertex, bent shading normals (bump maps, smooth
-         * meshes) included: material.h's diffuse_pdf gives the BSDF strategy's density there. */
-        const bool front = dot(d, s.n) <= 0.0f;
-        const float3 facing_g = front ? s.n : -s.n;
-        const float3 facing = front ? sm.shading_normal : -sm.shading_normal;
-        sampled_light = sm.type == MATERIAL_DIFFUSE && params->num_lights > 0u;
+        /* Light sampling at every vertex but a delta lobe's, bent shading normals (bump maps,
+         * smooth meshes) included: nee.h joins the light's trio to material.h's. */
+        sampled_light = !bsdf_is_delta(sm.type) && params->num_lights > 0u;
         if (sampled_light) {
-            radiance +=
-                throughput * sample_light(sc, s, facing, facing_g, sm.color, rng_next4(&rng));
+            radiance += throughput * sample_light(sc, s, sm.type, sm.color, -d,
+                                                  sm.shading_normal, rng_next4(&rng));
         }
 #endif
         float3 wi;
-        throughput *= material_sample(sm.type, sm.color, -d, s.n, sm.shading_normal, u, &wi);
+        float pdf;
+        bool is_delta;
+        throughput *= bsdf_sample(sm.type, sm.color, -d, s.n, sm.shading_normal, u, &wi, &pdf,
+                                  &is_delta);
 #if CLPT_NEE
         if (sampled_light) {
+            /* The density with which this vertex found wi: the next hit's MIS weight. */
             prev_p = s.p;
-            prev_pdf = diffuse_pdf(wi, facing, facing_g);
+            prev_pdf = pdf;
         }
 #endif
 

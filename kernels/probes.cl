@@ -1,7 +1,9 @@
 /* probes.cl: small kernels that the tests call, one routine in, results out.
  *
  * Reads: the inputs each probe names. Writes: one output record per work-item. Why: every
- * device routine is checked against an f64 Rust reference (tests/), and these are the doors.
+ * device routine is checked against an f64 Rust reference (tests/), and these are the doors;
+ * the sampling trios of materials and lights (probe_bsdf, probe_light_sample, probe_light_pdf)
+ * are checked against their own densities by the chi-square harness of tests/common/chi2.rs.
  */
 #include "types.h"
 #include "vecmath.h"
@@ -11,6 +13,7 @@
 #include "objects.h"
 #include "texture.h"
 #include "material.h"
+#include "nee.h"
 
 /* Philox 4x32-10 on given counters and keys (known-answer tests). */
 __kernel void probe_philox(__global const uint4* ctr, __global const uint2* key,
@@ -78,17 +81,31 @@ __kernel void probe_hit(SCENE_KERNEL_ARGS, __global const float* rays, __global 
     r[15] = dot(o2 - s.p, s.n);
 }
 
-/* Material sampling: input wo, n (unit) and four uniforms, type per work-item; output wi and
- * the weight. */
-__kernel void probe_material(__global const uint* type, __global const float* wo_n,
-                             __global const float4* u, __global float* out) {
+/* A material's trio (material.h): input per work-item its type, 15 floats wo, n, ns, colour and
+ * a direction w, and four uniforms; output 16 floats: bsdf_sample's wi, weight, pdf and
+ * is_delta (1 or 0), then bsdf_eval and bsdf_pdf at that wi, then at w. */
+__kernel void probe_bsdf(__global const uint* type, __global const float* frames,
+                         __global const float4* u, __global float* out) {
     const uint i = get_global_id(0);
+    const float3 wo = vload3(5 * i, frames);
+    const float3 n = vload3(5 * i + 1, frames);
+    const float3 ns = vload3(5 * i + 2, frames);
+    const float3 color = vload3(5 * i + 3, frames);
+    const float3 w = vload3(5 * i + 4, frames);
+    const uint t = type[i];
     float3 wi;
-    const float3 n = vload3(2 * i + 1, wo_n);
-    const float3 weight = material_sample(type[i], (float3)(1.0f), vload3(2 * i, wo_n), n, n,
-                                          u[i], &wi);
-    vstore3(wi, 2 * i, out);
-    vstore3(weight, 2 * i + 1, out);
+    float pdf;
+    bool is_delta;
+    const float3 weight = bsdf_sample(t, color, wo, n, ns, u[i], &wi, &pdf, &is_delta);
+    __global float* r = out + 16 * i;
+    vstore3(wi, 0, r);
+    vstore3(weight, 1, r);
+    r[6] = pdf;
+    r[7] = is_delta ? 1.0f : 0.0f;
+    vstore3(bsdf_eval(t, color, wo, wi, n, ns), 0, r + 8);
+    r[11] = bsdf_pdf(t, wo, wi, n, ns);
+    vstore3(bsdf_eval(t, color, wo, w, n, ns), 0, r + 12);
+    r[15] = bsdf_pdf(t, wo, w, n, ns);
 }
 
 /* A ray spawned off the first hit of (o, d), into the side the ray came from, towards w given
@@ -124,21 +141,33 @@ __kernel void probe_spawn(SCENE_KERNEL_ARGS, __global const float* rays, __globa
     }
 }
 
-/* The diffuse branch with a bent shading normal: input wo, n, ns and a direction w (12 floats)
- * and four uniforms; output the sampled wi and diffuse_pdf(w) for the side wo arrived on. */
-__kernel void probe_diffuse(__global const float* wo_n_ns_w, __global const float4* u,
-                            __global float* out) {
+/* An emitter's trio (nee.h), for light 0 of `lights`: input per work-item p and two uniforms
+ * (5 floats); output 12 floats: light_sample's wi, q, q_error, pdf and whether it sampled
+ * (1 or 0), then light_pdf at that wi and the distance |q - p|. */
+__kernel void probe_light_sample(__global const Light* lights, __global const float* p_u,
+                                 __global float* out) {
     const uint i = get_global_id(0);
-    const float3 wo = vload3(4 * i, wo_n_ns_w);
-    const float3 n = vload3(4 * i + 1, wo_n_ns_w);
-    const float3 ns = vload3(4 * i + 2, wo_n_ns_w);
-    float3 wi;
-    material_sample(MATERIAL_DIFFUSE, (float3)(1.0f), wo, n, ns, u[i], &wi);
-    const bool front = dot(wo, n) >= 0.0f;
-    const float pdf =
-        diffuse_pdf(vload3(4 * i + 3, wo_n_ns_w), front ? ns : -ns, front ? n : -n);
-    vstore3(wi, 0, out + 4 * i);
-    out[4 * i + 3] = pdf;
+    __global const float* in = p_u + 5 * i;
+    const float3 p = vload3(0, in);
+    float3 wi = (float3)(0.0f), q = (float3)(0.0f), q_error = (float3)(0.0f);
+    float pdf = 0.0f;
+    const bool ok = light_sample(&lights[0], p, (float2)(in[3], in[4]), &wi, &q, &q_error, &pdf);
+    __global float* r = out + 12 * i;
+    vstore3(wi, 0, r);
+    vstore3(q, 1, r);
+    vstore3(q_error, 2, r);
+    r[9] = pdf;
+    r[10] = ok ? 1.0f : 0.0f;
+    r[11] = ok ? light_pdf(&lights[0], p, wi, length(q - p)) : 0.0f;
+}
+
+/* light_pdf of light 0 of `lights`: input per work-item p, a unit direction d that meets the
+ * light and the distance t to where it does (7 floats); output the density. */
+__kernel void probe_light_pdf(__global const Light* lights, __global const float* p_d_t,
+                              __global float* out) {
+    const uint i = get_global_id(0);
+    __global const float* in = p_d_t + 7 * i;
+    out[i] = light_pdf(&lights[0], vload3(0, in), vload3(1, in), in[6]);
 }
 
 /* Texture coordinates and directions of a hit: input as probe_hit (9 floats, w unused); output

@@ -29,6 +29,7 @@ pub fn device() -> clpt::device::Device {
     }
 }
 
+pub mod chi2;
 pub mod reference;
 
 use clpt::device::Device;
