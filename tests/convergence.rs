@@ -211,3 +211,53 @@ fn target_error_stops_when_the_error_is_reached() {
         );
     }
 }
+
+/// Light sampling and pure path tracing agree on every scene shipped in `scenes/` (rendered at
+/// 16x12; the whole image's mean per channel, Z-test at 5 standard errors): whatever light
+/// list, clipping or visible cap a scene's emitters get, the two estimate the same image.
+#[test]
+fn light_sampling_on_and_off_agree_on_every_shipped_scene() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "txt"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 9, "scenes/ holds {} scenes", files.len());
+    for file in files {
+        let mut scene = Scene::load(&file).unwrap_or_else(|e| panic!("{e}"));
+        (scene.camera.width, scene.camera.height) = (16, 12);
+        let film = |light_sampling, spp, seed| {
+            let options = RenderOptions {
+                spp: Some(spp),
+                seed,
+                light_sampling,
+                ..RenderOptions::default()
+            };
+            common::render(&scene, options).0
+        };
+        let (with, without) = (
+            film(LightSampling::On, 2048, 11),
+            film(LightSampling::Off, 8192, 12),
+        );
+        let (a, va) = common::image_mean(&with);
+        let (b, vb) = common::image_mean(&without);
+        for c in 0..3 {
+            let z = (a[c] - b[c]) / (va[c] + vb[c]).sqrt();
+            eprintln!(
+                "{}: channel {c}: {:.5} against {:.5}, z {z:.2}",
+                file.display(),
+                a[c],
+                b[c]
+            );
+            assert!(
+                z.abs() < 5.0,
+                "{}, channel {c}: {} with light sampling, {} without (z = {z:.2})",
+                file.display(),
+                a[c],
+                b[c]
+            );
+        }
+    }
+}

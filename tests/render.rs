@@ -278,7 +278,20 @@ fn reference_film(scene: &Scene, spp: u32) -> Film {
 fn smallpt_region_means_match_f64_reference() {
     let scene = smallpt_at(64, 48);
     let packed = clpt::device::upload::PackedScene::new(&scene, u64::MAX).unwrap();
-    let device_film = render(&scene, options(2048, 5));
+    // The device with either roulette threshold (and light sampling, over the light's visible
+    // cap), against the f64 path tracer's own estimator (pure path tracing, pbrt's roulette).
+    let device_films = [1.0, 0.3].map(|threshold| {
+        (
+            threshold,
+            render(
+                &scene,
+                RenderOptions {
+                    roulette: Roulette::Threshold(threshold),
+                    ..options(2048, 5)
+                },
+            ),
+        )
+    });
     let reference = reference_film(&scene, 1024);
     // Label each pixel by what its centre ray meets first (f64).
     let mut regions: Vec<(&str, Vec<(u32, u32)>)> = vec![
@@ -315,9 +328,13 @@ fn smallpt_region_means_match_f64_reference() {
             regions[region].1.push((x, y));
         }
     }
-    for (name, pixels) in &regions {
+    for ((name, pixels), (threshold, device_film)) in regions
+        .iter()
+        .flat_map(|r| device_films.iter().map(move |d| (r, d)))
+    {
+        let name = format!("{name} (roulette below {threshold})");
         assert!(pixels.len() >= 20, "{name}: only {} pixels", pixels.len());
-        let (m_dev, se_dev) = region_mean(&device_film, pixels);
+        let (m_dev, se_dev) = region_mean(device_film, pixels);
         let (m_ref, se_ref) = region_mean(&reference, pixels);
         for c in 0..3 {
             let se = (se_dev[c].powi(2) + se_ref[c].powi(2)).sqrt();

@@ -16,22 +16,6 @@ use clpt::scene::parse::parse_scene;
 
 const Z_LIMIT: f64 = 5.0;
 
-/// The image mean per channel and its standard error.
-fn image_mean(film: &Film) -> ([f64; 3], [f64; 3]) {
-    let (mut mean, mut var) = ([0.0; 3], [0.0; 3]);
-    for y in 0..film.height {
-        for x in 0..film.width {
-            let (m, v) = (film.mean(x, y), film.variance_of_mean(x, y));
-            for c in 0..3 {
-                mean[c] += m[c];
-                var[c] += v[c];
-            }
-        }
-    }
-    let n = f64::from(film.width * film.height);
-    (mean.map(|m| m / n), var.map(|v| v.sqrt() / n))
-}
-
 fn render(scene: &Scene, spp: u32, seed: u64) -> Film {
     let options = RenderOptions {
         spp: Some(spp),
@@ -52,7 +36,8 @@ const ROUNDING: f64 = 1e-4;
 /// Asserts that two renders' image means agree within Z_LIMIT standard errors (and rounding),
 /// and that the test is sharp enough to see a 2% loss.
 fn assert_same_light(what: &str, a: &Film, b: &Film) {
-    let ((ma, sa), (mb, sb)) = (image_mean(a), image_mean(b));
+    let ((ma, va), (mb, vb)) = (common::image_mean(a), common::image_mean(b));
+    let (sa, sb) = (va.map(f64::sqrt), vb.map(f64::sqrt));
     for c in 0..3 {
         let se = sa[c].hypot(sb[c]) + ROUNDING * mb[c].abs() / Z_LIMIT;
         let z = (ma[c] - mb[c]) / se;

@@ -376,3 +376,20 @@ pub fn quadrant_mean(film: &clpt::render::film::Film, q: u32) -> ([f64; 3], [f64
     let n = (w * h) as f64;
     (mean.map(|m| m / n), var.map(|v| v / (n * n)))
 }
+
+/// Mean radiance of the whole film per channel, and the variance of that mean from the pixels'
+/// own sample variances.
+pub fn image_mean(film: &clpt::render::film::Film) -> ([f64; 3], [f64; 3]) {
+    let (mut mean, mut var) = ([0.0; 3], [0.0; 3]);
+    for y in 0..film.height {
+        for x in 0..film.width {
+            let (m, v) = (film.mean(x, y), film.variance_of_mean(x, y));
+            for c in 0..3 {
+                mean[c] += m[c];
+                var[c] += v[c];
+            }
+        }
+    }
+    let n = f64::from(film.width * film.height);
+    (mean.map(|m| m / n), var.map(|v| v / (n * n)))
+}
