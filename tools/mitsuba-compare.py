@@ -12,7 +12,7 @@ for the same estimator: the table subtracts that. Mitsuba runs its `path` integr
 defaults (emitter sampling with MIS, Russian roulette from depth 5, no depth limit), the LLVM
 variant on the CPU or the CUDA variant with --cuda.
 
-    pip install mitsuba   # the LLVM variant needs libLLVM >= 16 (Debian: libllvm19)
+    pip install mitsuba numpy   # the LLVM variant needs libLLVM >= 16 (Debian: libllvm19)
     python3 tools/mitsuba-compare.py --clpt target/release/clpt --seconds 10 --out /tmp/cmp
 """
 import argparse
