@@ -16,8 +16,9 @@
 
 mod common;
 
+use common::Probes;
+
 use clpt::device::layout::{Light, OBJECT_MESH, OBJECT_PLANE, OBJECT_SPHERE};
-use clpt::device::upload::PackedScene;
 use common::chi2;
 use glam::DVec3;
 use rand::rngs::SmallRng;
@@ -121,18 +122,7 @@ struct Sample {
     pdf_at_q: f64,
 }
 
-struct Probes {
-    device: clpt::device::Device,
-    program: ocl::Program,
-}
-
 impl Probes {
-    fn new() -> Probes {
-        let device = common::device();
-        let program = common::probes(&device);
-        Probes { device, program }
-    }
-
     /// Runs probe `name` on light (as the light list's only entry) over `items` work-items of
     /// `input`, each writing `width` floats.
     fn kernel(
@@ -332,16 +322,6 @@ fn alone(l: &Light) -> Light {
     }
 }
 
-/// The light list of common::every_light_scene: a sphere, a rotated square, two triangles (its
-/// files under a folder of the test's own: tests run in parallel).
-fn scene_lights(test: &str) -> Vec<Light> {
-    let dir = std::env::temp_dir().join(format!("clpt-chi2-{}-{test}", std::process::id()));
-    let scene = common::every_light_scene(&dir);
-    let packed = PackedScene::new(&scene, u64::MAX).unwrap_or_else(|e| panic!("{e}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    packed.lights
-}
-
 /// The chi-square harness on `n` samples of light l from p, against the device's light_pdf
 /// (first, so that a wrong density shows there); then per sample: its point on the light, its
 /// direction towards the point, its pdf light_pdf there; and light_pdf equal to its f64 form at
@@ -509,7 +489,7 @@ fn area_nodes(l: &Light, p: DVec3, m: usize) -> (Vec<DVec3>, Vec<f64>, Vec<f64>)
 fn sphere_light_cone_sampling_follows_light_pdf() {
     let probes = Probes::new();
     let mut rng = SmallRng::seed_from_u64(41);
-    let l = alone(&scene_lights("sphere")[0]);
+    let l = alone(&common::every_light_scene_lights("sphere")[0]);
     assert_eq!(l.kind, OBJECT_SPHERE);
     let c = v(l.corner);
     let r = f64::from(l.radius);
@@ -547,7 +527,7 @@ fn sphere_light_cone_sampling_follows_light_pdf() {
 fn sphere_cap_sampling_follows_light_pdf() {
     let probes = Probes::new();
     let mut rng = SmallRng::seed_from_u64(43);
-    let l = alone(&scene_lights("cap")[0]);
+    let l = alone(&common::every_light_scene_lights("cap")[0]);
     assert_eq!(l.kind, OBJECT_SPHERE);
     let (c, r) = (v(l.corner), f64::from(l.radius));
     let axis = DVec3::new(0.2, -1.0, 0.1).normalize();
@@ -585,7 +565,7 @@ fn sphere_cap_sampling_follows_light_pdf() {
 fn square_parallelogram_and_triangle_sampling_follows_light_pdf() {
     let probes = Probes::new();
     let mut rng = SmallRng::seed_from_u64(42);
-    let lights = scene_lights("area");
+    let lights = common::every_light_scene_lights("area");
     let square = alone(&lights[1]);
     let triangle = alone(&lights[2]);
     assert_eq!((square.kind, triangle.kind), (OBJECT_PLANE, OBJECT_MESH));
@@ -645,7 +625,7 @@ fn square_parallelogram_and_triangle_sampling_follows_light_pdf() {
 fn nothing_is_sampled_from_inside_a_sphere_or_behind_a_square() {
     let probes = Probes::new();
     let mut rng = SmallRng::seed_from_u64(43);
-    let lights = scene_lights("nothing");
+    let lights = common::every_light_scene_lights("nothing");
     let u: Vec<[f32; 2]> = (0..1000).map(|_| [rng.random(), rng.random()]).collect();
     let sphere = alone(&lights[0]);
     let square = alone(&lights[1]);

@@ -20,15 +20,6 @@ use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
 use std::f64::consts::PI;
 
-/// The light list of common::every_light_scene (its files under a folder of the test's own).
-fn lights(test: &str) -> Vec<Light> {
-    let dir = std::env::temp_dir().join(format!("clpt-lights-{}-{test}", std::process::id()));
-    let scene = common::every_light_scene(&dir);
-    let packed = PackedScene::new(&scene, u64::MAX).unwrap_or_else(|e| panic!("{e}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    packed.lights
-}
-
 fn v(a: [f32; 3]) -> DVec3 {
     DVec3::from(a.map(f64::from))
 }
@@ -39,8 +30,9 @@ fn close(a: f64, b: f64, rel: f64) -> bool {
 
 #[test]
 fn the_list_holds_the_similar_sphere_the_square_and_the_triangles_and_no_ellipsoid() {
-    let lights =
-        lights("the_list_holds_the_similar_sphere_the_square_and_the_triangles_and_no_ellipsoid");
+    let lights = common::every_light_scene_lights(
+        "lights-the_list_holds_the_similar_sphere_the_square_and_the_triangles_and_no_ellipsoid",
+    );
     let keys: Vec<(u32, u32, u32)> = lights
         .iter()
         .map(|l| (l.kind, l.index, l.triangle))
@@ -68,7 +60,9 @@ fn the_list_holds_the_similar_sphere_the_square_and_the_triangles_and_no_ellipso
 
 #[test]
 fn the_rotated_square_maps_onto_the_plane_s_own_square_and_faces_its_side() {
-    let lights = lights("the_rotated_square_maps_onto_the_plane_s_own_square_and_faces_its_side");
+    let lights = common::every_light_scene_lights(
+        "lights-the_rotated_square_maps_onto_the_plane_s_own_square_and_faces_its_side",
+    );
     let square = &lights[1];
     let m = DMat4::from_translation(DVec3::new(1.8, 2.6, -1.5))
         * DMat4::from_rotation_x(20f64.to_radians())
@@ -93,7 +87,7 @@ fn the_rotated_square_maps_onto_the_plane_s_own_square_and_faces_its_side() {
 
 #[test]
 fn the_quad_s_triangles_carry_its_scaled_area() {
-    let lights = lights("the_quad_s_triangles_carry_its_scaled_area");
+    let lights = common::every_light_scene_lights("the_quad_s_triangles_carry_its_scaled_area");
     let area: f64 = lights[2..].iter().map(|l| f64::from(l.area)).sum();
     assert!(close(area, 1.6 * 0.6, 1e-6), "{area}");
     for l in &lights[2..] {
@@ -105,7 +99,7 @@ fn the_quad_s_triangles_carry_its_scaled_area() {
 
 #[test]
 fn lights_are_picked_in_proportion_to_their_power() {
-    let lights = lights("lights_are_picked_in_proportion_to_their_power");
+    let lights = common::every_light_scene_lights("lights_are_picked_in_proportion_to_their_power");
     // pi Le area, Le the mean channel; the triangles emit to both sides.
     let power = [
         PI * 5.0 * 4.0 * PI * 0.4 * 0.4,

@@ -16,6 +16,8 @@
 
 mod common;
 
+use common::Probes;
+
 use clpt::device::layout::{MATERIAL_DIFFUSE, MATERIAL_REFRACTIVE, MATERIAL_SPECULAR};
 use common::chi2;
 use glam::DVec3;
@@ -50,19 +52,7 @@ struct Record {
     pdf_w: f64,
 }
 
-/// The device and the probes program, built once per test.
-struct Probes {
-    device: clpt::device::Device,
-    program: ocl::Program,
-}
-
 impl Probes {
-    fn new() -> Probes {
-        let device = common::device();
-        let program = common::probes(&device);
-        Probes { device, program }
-    }
-
     /// Runs probe_bsdf on material `kind` for each query with its four uniforms.
     fn bsdf(&self, kind: u32, queries: &[Query], u: &[[f32; 4]]) -> Vec<Record> {
         assert_eq!(queries.len(), u.len());

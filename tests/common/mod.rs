@@ -42,6 +42,31 @@ pub fn probes(device: &Device) -> ocl::Program {
         .program
 }
 
+/// The test device and the probes program built for it, once per test.
+pub struct Probes {
+    pub device: Device,
+    pub program: ocl::Program,
+}
+
+impl Probes {
+    pub fn new() -> Probes {
+        let device = device();
+        let program = probes(&device);
+        Probes { device, program }
+    }
+}
+
+/// The light list of `every_light_scene`, its files under a folder of the test's own (`test`:
+/// tests run in parallel).
+pub fn every_light_scene_lights(test: &str) -> Vec<clpt::device::layout::Light> {
+    let dir = std::env::temp_dir().join(format!("clpt-{}-{test}", std::process::id()));
+    let scene = every_light_scene(&dir);
+    let packed =
+        clpt::device::upload::PackedScene::new(&scene, u64::MAX).unwrap_or_else(|e| panic!("{e}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    packed.lights
+}
+
 /// A device buffer holding `data`.
 pub fn buffer<T: ocl::OclPrm>(device: &Device, data: &[T]) -> ocl::Buffer<T> {
     ocl::Buffer::<T>::builder()
