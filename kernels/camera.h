@@ -3,8 +3,10 @@
  * Reads: the Camera struct. Writes: nothing. Why: the original's scene files must frame the
  * same picture, so the image plane is smallpt's: cx = (w*a/h, 0, 0), cy = normalize(cx x d)*a,
  * and the ray through (x, y) is cx*(x/w - 1/2) + cy*(y/h - 1/2) + d, y = 0 the bottom row.
- * Each pixel is split 2x2; the sample index picks the sub-pixel and a tent filter of width one
- * sub-pixel jitters inside it (smallpt's filter, as main.cu's renderPixel).
+ * Each pixel is split 2x2 and a tent filter of width one sub-pixel jitters inside the sub-pixel
+ * (smallpt's filter, as main.cu's renderPixel). The original picked the sub-pixel by the sample
+ * index; here the top bit of each of u.x and u.y picks it and the rest jitters, so the filter is
+ * the same and a quasi-random u (rng.h) spreads over the sub-pixels as well as within them.
  *
  * Thin lens (focus_distance > 0): the lens is a disk of radius lens_radius (the original's
  * `aperture`) spanned by lens_u, lens_v; every ray through the lens meets the ray through its
@@ -41,14 +43,17 @@ inline float2 concentric_disk(float2 u) {
 }
 #endif
 
-/* The primary ray for pixel (px, py), sub-pixel `sub` (0..3), from four uniform numbers:
- * u.xy jitter the image point, u.zw pick the lens point. */
-inline void camera_ray(__global const Camera* cam, uint px, uint py, uint sub, float4 u,
-                       float3* origin, float3* direction) {
-    const float sx = (float)(sub & 1u);
-    const float sy = (float)(sub >> 1);
-    const float fx = (((sx + 0.5f + tent(u.x)) * 0.5f + (float)px) / (float)cam->width) - 0.5f;
-    const float fy = (((sy + 0.5f + tent(u.y)) * 0.5f + (float)py) / (float)cam->height) - 0.5f;
+/* The primary ray for pixel (px, py) from four uniform numbers: u.xy pick the sub-pixel (u < 1/2
+ * the first) and jitter the image point inside it, u.zw pick the lens point. 2u - s is exact
+ * in floating point, so the jitter's number stays uniform. */
+inline void camera_ray(__global const Camera* cam, uint px, uint py, float4 u, float3* origin,
+                       float3* direction) {
+    const float sx = u.x < 0.5f ? 0.0f : 1.0f;
+    const float sy = u.y < 0.5f ? 0.0f : 1.0f;
+    const float fx =
+        (((sx + 0.5f + tent(2.0f * u.x - sx)) * 0.5f + (float)px) / (float)cam->width) - 0.5f;
+    const float fy =
+        (((sy + 0.5f + tent(2.0f * u.y - sy)) * 0.5f + (float)py) / (float)cam->height) - 0.5f;
     const float3 forward = vload3(0, cam->forward);
     const float3 d = vload3(0, cam->cx) * fx + vload3(0, cam->cy) * fy + forward;
     const float3 o = vload3(0, cam->origin);

@@ -77,7 +77,7 @@ inline float3 trace_path(const Scene* sc, uint px, uint py, uint sample) {
     const uint pixel = py * params->camera.width + px;
     Rng rng = rng_for_path(params->seed_lo, params->seed_hi, pixel, sample);
     float3 o, d;
-    camera_ray(&params->camera, px, py, sample & 3u, rng_next4(&rng), &o, &d);
+    camera_ray(&params->camera, px, py, rng_next4(&rng), &o, &d);
 
     float3 radiance = (float3)(0.0f);
     float3 throughput = (float3)(1.0f);
@@ -158,10 +158,9 @@ inline float3 trace_path(const Scene* sc, uint px, uint py, uint sample) {
  * row_start + row_step, ... (row_count of them; row_step > 1 only for the strategy trial of
  * render/strategy.rs): the sums of radiance and of its squares, and apart the sum of the
  * samples of odd-numbered groups of four, so that the even and odd halves give two independent
- * estimates of each pixel whose difference measures the error (error_rows). Groups of four, not
- * single samples: sample i goes to sub-pixel i mod 4, and halves split by sample parity would
- * see different sub-pixels, their difference the image's gradient across the pixel rather than
- * noise. A sample that is not finite (an overflow, a NaN from a scene or a kernel fault) is
+ * estimates of each pixel whose difference measures the error (error_rows). The halves are two
+ * independent quasi-random sequences (rng.h), so the difference measures the error of their
+ * mean without bias. A sample that is not finite (an overflow, a NaN from a scene or a kernel fault) is
  * never added: it counts as 0, and the pixel's `bad` count and first bad sample index record it,
  * so the host can warn and name it. */
 __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum,

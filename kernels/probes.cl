@@ -32,12 +32,28 @@ __kernel void probe_rng_stream(uint seed_lo, uint seed_hi, uint sample, uint dim
     }
 }
 
-/* Primary rays: input (px, py, sub, -) and four uniforms; output origin and direction. */
+/* `dims` blocks of the samples sample_start + work-item of one pixel. */
+__kernel void probe_rng_samples(uint seed_lo, uint seed_hi, uint pixel, uint sample_start,
+                                uint dims, __global float4* out) {
+    const uint i = get_global_id(0);
+    Rng rng = rng_for_path(seed_lo, seed_hi, pixel, sample_start + i);
+    for (uint k = 0u; k < dims; ++k) {
+        out[i * dims + k] = rng_next4(&rng);
+    }
+}
+
+/* The unscrambled Sobol points of the given indices (sobol.h). */
+__kernel void probe_sobol(__global const uint* index, __global uint4* out) {
+    const uint i = get_global_id(0);
+    out[i] = sobol4(index[i]);
+}
+
+/* Primary rays: input (px, py, -, -) and four uniforms; output origin and direction. */
 __kernel void probe_camera(__global const RenderParams* params, __global const uint4* pixel,
                            __global const float4* u, __global float* out) {
     const uint i = get_global_id(0);
     float3 o, d;
-    camera_ray(&params->camera, pixel[i].x, pixel[i].y, pixel[i].z, u[i], &o, &d);
+    camera_ray(&params->camera, pixel[i].x, pixel[i].y, u[i], &o, &d);
     vstore3(o, 2 * i, out);
     vstore3(d, 2 * i + 1, out);
 }

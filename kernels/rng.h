@@ -1,17 +1,35 @@
-/* rng.h: counter-based random numbers (Philox 4x32-10; Salmon et al., "Parallel random numbers:
- * as easy as 1, 2, 3", SC 2011).
+/* rng.h: the random numbers of a path: a padded, shuffled, Owen-scrambled Sobol sequence per
+ * pixel, seeded by a counter-based generator (Philox 4x32-10; Salmon et al., "Parallel random
+ * numbers: as easy as 1, 2, 3", SC 2011).
  *
  * Reads: nothing. Writes: nothing. Why: every random number is a pure function of
- * (seed, pixel, sample, dimension), so any path can be replayed alone and no generator state
- * lives in memory. The original seeded a per-pixel generator and drew visible patterns; a
- * counter-based generator has no per-pixel state to correlate.
+ * (seed, pixel, sample, dimension), so any path can be replayed alone, any split of the sample
+ * range traces the same paths, and no generator state lives in memory.
  *
- * Counter = (pixel, sample, dimension block, 0), key = the 64-bit seed. One block gives four
- * 32-bit words; `dimension` counts blocks along the path. tests/rng.rs checks the known-answer
- * vectors of Random123 and the uniformity of what the kernels draw.
+ * The numbers come in blocks of four (`dimension` counts blocks along the path: the camera's,
+ * then per bounce the BSDF's and, with light sampling, the light's). Block b < SOBOL_BLOCKS of
+ * sample s in pixel p is point j of a four-dimensional Sobol sequence (sobol.h) whose index is shuffled
+ * and whose coordinates are Owen-scrambled with seeds that Philox draws from (seed, p, b, half):
+ * Burley's "shuffled scrambled Sobol" with padding (JCGT 2020), pbrt-v4's PaddedSobolSampler.
+ * Later blocks are Philox numbers of (pixel, s, b) (the counter-based generator alone).
+ * Each number is uniform on [0, 1) and the blocks of one sample independent, so every estimate
+ * stays unbiased; within a block a pixel's samples fill the four dimensions evenly, which
+ * lowers the error of the camera's and the first bounces' integrals (measured in
+ * BENCHMARKS.md, "Quasi-random samples").
+ *
+ * The error estimate (pathtracer.cl, render/strategy.rs) compares the samples of even and odd
+ * groups of four, so those halves are two independent sequences: sample s belongs to half
+ * h = (s >> 2) & 1, is point j = (s >> 3) * 4 + (s & 3) of its half, and the scrambling seeds
+ * depend on h. The difference of the halves then measures the error of the whole without bias,
+ * where halves of one sequence would be negatively correlated and overstate it.
+ *
+ * tests/rng.rs checks Philox's known answers (Random123), the Sobol table, the net property,
+ * uniformity and the independence of pixels, seeds, halves and blocks.
  */
 #ifndef CLPT_RNG_H
 #define CLPT_RNG_H
+
+#include "sobol.h"
 
 #define PHILOX_M0 0xD2511F53u
 #define PHILOX_M1 0xCD9E8D57u
@@ -33,7 +51,7 @@ inline uint4 philox4x32_10(uint4 ctr, uint2 key) {
     return ctr;
 }
 
-/* The stream of one path: (seed, pixel, sample) fixed, `dimension` advancing. */
+/* The numbers of one path: (seed, pixel, sample) fixed, `dimension` advancing. */
 typedef struct Rng {
     uint2 key;
     uint pixel;
@@ -55,11 +73,31 @@ inline float rng_to_unit(uint bits) {
     return (float)(bits >> 8) * 0x1.0p-24f;
 }
 
-/* Four uniform numbers in [0, 1) from the next dimension block. */
+/* Blocks 0 .. SOBOL_BLOCKS - 1 are quasi-random: the camera's, the first bounce's BSDF block and
+ * then its light block (with light sampling) or the second bounce's BSDF block (without). Later
+ * ones are plain Philox numbers of (pixel, sample, block): on PoCL, 3 quasi-random blocks gave
+ * the error of 6 or of all (the variance lies in the pixel footprint and the first bounce) at
+ * less cost, 2 left 1.7 times the error in a room with light sampling. */
+#define SOBOL_BLOCKS 3u
+
+/* Four uniform numbers in [0, 1) from the next dimension block. A quasi-random block: Philox of
+ * the counter (pixel, block, half, ~0) under the seed gives the shuffle and scrambling seeds,
+ * the sample the point index. */
 inline float4 rng_next4(Rng* rng) {
-    const uint4 bits =
-        philox4x32_10((uint4)(rng->pixel, rng->sample, rng->dimension, 0u), rng->key);
+    const uint block = rng->dimension;
     rng->dimension += 1u;
+    uint4 bits;
+    if (block < SOBOL_BLOCKS) {
+        const uint half_index = (rng->sample >> 2) & 1u;
+        const uint point = ((rng->sample >> 3) << 2) | (rng->sample & 3u);
+        const uint4 seeds =
+            philox4x32_10((uint4)(rng->pixel, block, half_index, 0xffffffffu), rng->key);
+        /* A fifth seed for the fourth coordinate, from the other four (Weyl step, mixing). */
+        const uint seed_w = (seeds.x ^ seeds.w) * 0x9E3779B9u + seeds.y;
+        bits = scrambled_sobol4(point, seeds.x, (uint4)(seeds.y, seeds.z, seeds.w, seed_w));
+    } else {
+        bits = philox4x32_10((uint4)(rng->pixel, rng->sample, block, 0u), rng->key);
+    }
     return (float4)(rng_to_unit(bits.x), rng_to_unit(bits.y), rng_to_unit(bits.z),
                     rng_to_unit(bits.w));
 }

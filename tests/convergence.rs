@@ -4,8 +4,12 @@
 //! the built-in smallpt and scenes/small_light.txt, at 24x18):
 //! - renders of 8 to 8192 samples per pixel (three decades of run time) estimate their RMSE
 //!   from the even and odd halves of their samples within a factor of 1.5 of the RMSE measured
-//!   against a 131072-sample reference, and MSE × samples stays within a factor of 1.5 of its
-//!   mean: the error falls as 1/√t, as an unbiased estimator's does;
+//!   against a 131072-sample reference, and the MSE falls at least as fast as 1/samples (the
+//!   least-squares slope of ln MSE against ln spp at most -0.8): the error falls at least as
+//!   1/√t, as an unbiased Monte Carlo estimator's does. (The samples are quasi-random,
+//!   kernels/rng.h: on the room MSE × samples fell from 6.7e-3 at 8 spp to 3.3e-3 at 32 and
+//!   about 2.3e-3 from 2048 on, faster than 1/t early, as randomized quasi-Monte Carlo does; an
+//!   estimator that levels off, biased or stalled, still fails.)
 //! - next-event estimation with MIS and pure path tracing converge to the same image: every
 //!   quadrant's mean, per channel, agrees within 5 standard errors, on those three scenes and on
 //!   one lit by every kind of listed emitter (a transformed sphere, a rotated square, the
@@ -31,6 +35,9 @@ use std::sync::Arc;
 
 /// How far the estimate may stray from the measured error, either way.
 const FACTOR: f64 = 1.5;
+
+/// The sample counts of the estimate's test: three decades of run time.
+const SPPS: [u32; 6] = [8, 32, 128, 512, 2048, 8192];
 
 fn small(mut scene: Scene) -> Scene {
     scene.camera.width = 24;
@@ -82,12 +89,12 @@ fn render(
 }
 
 #[test]
-fn the_estimate_tracks_the_true_error_and_mse_falls_as_one_over_time() {
+fn the_estimate_tracks_the_true_error_and_mse_falls_at_least_as_one_over_time() {
     for (name, scene) in scenes() {
         let (_, reference) = render(&scene, 131072, 1, None);
         let reference = Arc::new(reference);
         let mut scaled_mse = Vec::new();
-        for (k, spp) in [8u32, 32, 128, 512, 2048, 8192].into_iter().enumerate() {
+        for (k, &spp) in SPPS.iter().enumerate() {
             let (row, image) = render(&scene, spp, 100 + k as u64, Some(reference.clone()));
             let measured = row.measured.expect("measured against the reference");
             // The device's measurement is the host's.
@@ -109,13 +116,31 @@ fn the_estimate_tracks_the_true_error_and_mse_falls_as_one_over_time() {
             );
             scaled_mse.push(measured.rmse * measured.rmse * spp as f64);
         }
-        let mean = scaled_mse.iter().sum::<f64>() / scaled_mse.len() as f64;
-        for (s, spp) in scaled_mse.iter().zip([8, 32, 128, 512, 2048, 8192]) {
-            assert!(
-                (mean / FACTOR..=mean * FACTOR).contains(s),
-                "{name}: MSE x spp {s:.4e} at {spp} spp, mean {mean:.4e}: not 1/t"
-            );
-        }
+        // The least-squares slope of ln MSE against ln spp: -1 for Monte Carlo, below for
+        // quasi-random samples. One render's MSE scatters (ln sd about 0.4 on the small light),
+        // which puts the slope's standard error near 0.07 over these three decades: 0.2 is
+        // three of them. A biased or stalled estimator levels off far above.
+        let xs: Vec<f64> = SPPS.iter().map(|&n| f64::from(n).ln()).collect();
+        let ys: Vec<f64> = scaled_mse
+            .iter()
+            .zip(SPPS)
+            .map(|(s, n)| (s / f64::from(n)).ln())
+            .collect();
+        let (mx, my) = (
+            xs.iter().sum::<f64>() / xs.len() as f64,
+            ys.iter().sum::<f64>() / ys.len() as f64,
+        );
+        let slope = xs
+            .iter()
+            .zip(&ys)
+            .map(|(x, y)| (x - mx) * (y - my))
+            .sum::<f64>()
+            / xs.iter().map(|x| (x - mx).powi(2)).sum::<f64>();
+        eprintln!("{name}: MSE falls as spp^{slope:.3} ({scaled_mse:?} as MSE x spp)");
+        assert!(
+            slope <= -0.8,
+            "{name}: MSE falls as spp^{slope:.3}, slower than 1/t ({scaled_mse:?} as MSE x spp)"
+        );
     }
 }
 

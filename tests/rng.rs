@@ -1,10 +1,14 @@
-//! The device's counter-based generator: Philox 4x32-10 known answers (Random123's kat_vectors),
-//! uniformity of what rng_next4 returns (chi-square), and no correlation between the streams
-//! of neighbouring pixels, of consecutive samples, or of neighbouring seeds.
+//! The device's random numbers (kernels/rng.h, kernels/sobol.h): Philox 4x32-10 known answers
+//! (Random123's kat_vectors); the Sobol table against the Joe-Kuo recurrence; the net property
+//! of a pixel's samples in every block of four dimensions, in each of the two independent
+//! halves; uniformity of what rng_next4 returns (chi-square); and no correlation between
+//! neighbouring pixels, the two halves, neighbouring seeds, or dimensions.
 
 mod common;
 
 use ocl::prm::{Float4, Uint2, Uint4};
+use rand::rngs::SmallRng;
+use rand::{RngExt, SeedableRng};
 
 #[test]
 fn philox_known_answers() {
@@ -143,17 +147,24 @@ fn streams_of_neighbours_are_uncorrelated() {
     // Pixel p against pixel p + 1, dimension by dimension.
     let a = flat(&base[..pixels * per_pixel]);
     let b = flat(&base[per_pixel..(pixels + 1) * per_pixel]);
-    // Consecutive sample indices of the same pixels, and the neighbouring seed.
-    let next_sample = flat(&stream(42, 1, pixels, dims));
+    // The same pixels' first sample of the other half (sample 4), and the neighbouring seed.
+    // (Samples of one half are negatively correlated by design: they form a net.)
+    let other_half = flat(&stream(42, 4, pixels, dims));
     let next_seed = flat(&stream(43, 0, pixels, dims));
-    // Dimension k against dimension k + 1 within one stream.
+    // Dimension k against dimension k + 1 within one stream, and against the same dimension of
+    // the next block (padding: each block's sequence is shuffled apart).
     let (a0, a1) = (&a[..a.len() - 1], &a[1..]);
+    let (b0, b1) = (&a[..a.len() - 4], &a[4..]);
     let limit = 5.0 / (a.len() as f64).sqrt(); // five standard errors of r under independence
     for (what, r) in [
         ("neighbouring pixels", correlation(&a, &b)),
-        ("consecutive samples", correlation(&a, &next_sample)),
+        ("the two halves", correlation(&a, &other_half)),
         ("neighbouring seeds", correlation(&a, &next_seed)),
         ("consecutive dimensions", correlation(a0, a1)),
+        (
+            "the same dimension of consecutive blocks",
+            correlation(b0, b1),
+        ),
     ] {
         assert!(
             r.abs() < limit,
@@ -161,4 +172,138 @@ fn streams_of_neighbours_are_uncorrelated() {
         );
     }
     assert_ne!(a, next_seed, "another seed gave the same stream");
+}
+
+/// The Bratley-Fox recurrence for the direction numbers of a Sobol dimension with primitive
+/// polynomial degree `s`, coefficients `a` and initial numbers `m` (Joe and Kuo's notation),
+/// as 32-bit columns of the generator matrix.
+fn sobol_columns(s: usize, a: u32, m: &[u32]) -> [u32; 32] {
+    let mut mm: Vec<u64> = m.iter().map(|&v| v as u64).collect();
+    for k in s..32 {
+        let mut next = mm[k - s] ^ (mm[k - s] << s);
+        for j in 1..s {
+            if (a >> (s - 1 - j)) & 1 == 1 {
+                next ^= mm[k - j] << j;
+            }
+        }
+        mm.push(next);
+    }
+    std::array::from_fn(|k| ((mm[k] << (31 - k)) & 0xffff_ffff) as u32)
+}
+
+#[test]
+fn sobol_points_follow_the_joe_kuo_direction_numbers() {
+    let columns = [
+        std::array::from_fn::<u32, 32, _>(|k| 1u32 << (31 - k)), // van der Corput
+        sobol_columns(1, 0, &[1]),
+        sobol_columns(2, 1, &[1, 3]),
+        sobol_columns(3, 1, &[1, 3, 1]),
+    ];
+    let mut rng = SmallRng::seed_from_u64(5);
+    let mut index: Vec<u32> = (0..32).map(|k| 1u32 << k).collect();
+    index.extend((0..16u32).chain((0..1000).map(|_| rng.random::<u32>())));
+    let device = common::device();
+    let program = common::probes(&device);
+    let input = common::buffer(&device, &index);
+    let out = common::output::<Uint4>(&device, index.len());
+    let kernel = ocl::Kernel::builder()
+        .program(&program)
+        .name("probe_sobol")
+        .queue(device.queue.clone())
+        .arg(&input)
+        .arg(&out)
+        .build()
+        .unwrap();
+    common::run(&kernel, index.len());
+    for (got, &i) in common::read(&out).iter().zip(&index) {
+        for (d, column) in columns.iter().enumerate() {
+            let want = (0..32)
+                .filter(|k| (i >> k) & 1 == 1)
+                .fold(0u32, |x, k| x ^ column[k]);
+            assert_eq!(got[d], want, "Sobol point {i}, dimension {d}");
+        }
+    }
+    // The familiar start of the sequence: 0, 1/2, then 1/4 and 3/4 in some order.
+    assert_eq!(columns[2][..3], [0x8000_0000, 0xc000_0000, 0x6000_0000]);
+}
+
+/// `dims` blocks of samples `start..start + count` of one pixel.
+fn samples(seed: u64, pixel: u32, start: u32, count: usize, dims: u32) -> Vec<[f32; 4]> {
+    let device = common::device();
+    let program = common::probes(&device);
+    let out = common::output::<Float4>(&device, count * dims as usize);
+    let kernel = ocl::Kernel::builder()
+        .program(&program)
+        .name("probe_rng_samples")
+        .queue(device.queue.clone())
+        .arg(seed as u32)
+        .arg((seed >> 32) as u32)
+        .arg(pixel)
+        .arg(start)
+        .arg(dims)
+        .arg(&out)
+        .build()
+        .unwrap();
+    common::run(&kernel, count);
+    common::read(&out)
+        .iter()
+        .map(|v| [v[0], v[1], v[2], v[3]])
+        .collect()
+}
+
+/// True if the points put exactly one point in each box of a 2^a x 2^(m - a) grid, for every
+/// a (a (0, m, 2)-net in base 2), given 2^m points.
+fn is_net(points: &[(f32, f32)], m: u32) -> bool {
+    (0..=m).all(|a| {
+        let mut seen = vec![false; 1 << m];
+        points.iter().all(|&(x, y)| {
+            let (i, j) = (
+                (x * (1u32 << a) as f32) as usize,
+                (y * (1u32 << (m - a)) as f32) as usize,
+            );
+            !std::mem::replace(&mut seen[(i << (m - a)) | j], true)
+        })
+    })
+}
+
+#[test]
+fn each_half_of_a_pixels_samples_is_a_net_in_every_block() {
+    // Sample s is point (s >> 3) * 4 + (s & 3) of half (s >> 2) & 1: the first 2^m points of
+    // each half are among the first 2^(m + 1) samples.
+    let (m, dims) = (10u32, 3u32); // every quasi-random block: SOBOL_BLOCKS in kernels/rng.h
+    for (seed, pixel) in [(1u64, 0u32), (0xdead_beef_0000_0007, 123_457)] {
+        let all = samples(seed, pixel, 0, 2 << m, dims);
+        for half in 0..2u32 {
+            let of_half: Vec<&[[f32; 4]]> = all
+                .chunks_exact(dims as usize)
+                .enumerate()
+                .filter(|(s, _)| (*s as u32 >> 2) & 1 == half)
+                .map(|(_, blocks)| blocks)
+                .collect();
+            assert_eq!(of_half.len(), 1 << m);
+            for b in 0..dims as usize {
+                // Every coordinate alone: one point in each interval of length 2^-m.
+                for d in 0..4 {
+                    let mut seen = vec![false; 1 << m];
+                    for blocks in &of_half {
+                        let u = blocks[b][d];
+                        assert!((0.0..1.0).contains(&u), "{u} left [0, 1)");
+                        let cell = (u * (1u32 << m) as f32) as usize;
+                        assert!(
+                            !std::mem::replace(&mut seen[cell], true),
+                            "seed {seed:x}, pixel {pixel}, half {half}, block {b}, dimension {d}: two points in one interval"
+                        );
+                    }
+                }
+                // The first two coordinates together: a (0, m, 2)-net.
+                let xy: Vec<(f32, f32)> = of_half.iter().map(|v| (v[b][0], v[b][1])).collect();
+                assert!(
+                    is_net(&xy, m),
+                    "seed {seed:x}, pixel {pixel}, half {half}, block {b}: not a (0, {m}, 2)-net"
+                );
+            }
+        }
+        // The two halves are different sequences, not one sequence twice.
+        assert_ne!(all[0], all[4 * dims as usize]);
+    }
 }

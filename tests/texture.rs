@@ -570,25 +570,22 @@ fn quadrature_mean(
 ) -> [f64; 3] {
     let packed = PackedScene::new(scene, u64::MAX).unwrap();
     let cam = &packed.camera;
-    let k = 12;
+    let k = 24;
     let mut sum = [0.0; 3];
     let mut n = 0.0;
     for py in 0..cam.height {
         for px in 0..cam.width {
-            for sub in 0..4 {
-                for i in 0..k {
-                    for j in 0..k {
-                        let u = [(i as f64 + 0.5) / k as f64, (j as f64 + 0.5) / k as f64];
-                        let d =
-                            common::reference::camera_direction(cam, px, py, sub, u).normalize();
-                        let t = -cam.origin.z / d.z;
-                        let p = cam.origin + t * d;
-                        let v = value([p.x * dir_u, p.y * dir_v]);
-                        for c in 0..3 {
-                            sum[c] += v[c];
-                        }
-                        n += 1.0;
+            for i in 0..k {
+                for j in 0..k {
+                    let u = [(i as f64 + 0.5) / k as f64, (j as f64 + 0.5) / k as f64];
+                    let d = common::reference::camera_direction(cam, px, py, u).normalize();
+                    let t = -cam.origin.z / d.z;
+                    let p = cam.origin + t * d;
+                    let v = value([p.x * dir_u, p.y * dir_v]);
+                    for c in 0..3 {
+                        sum[c] += v[c];
                     }
+                    n += 1.0;
                 }
             }
         }

@@ -5,7 +5,9 @@
 #   scene,setting,spp,seconds,relmse_estimate,relmse_x_seconds,estimator
 # The `off:1` row is what `--no-nee` gave before this issue, `on:1` the earlier default.
 #   tools/estimators.sh CLPT OUT.csv SCENE:SPP[:W:H] ...
-# CLPT is the binary; the device comes from $CLPT_DEVICE.
+# CLPT is the binary; the device comes from $CLPT_DEVICE. With BEFORE=OLD_CLPT set, each scene
+# also gets a row `before-off:1`: OLD_CLPT with light sampling off and roulette below 1 (the
+# `--no-nee` that the issue measures against, rendered by the binary of that time).
 set -euo pipefail
 clpt=$1 out=$2
 shift 2
@@ -15,13 +17,18 @@ for entry in "$@"; do
   IFS=: read -r file spp w h <<< "$entry"
   size=()
   [ -n "${w:-}" ] && size=(--width "$w" --height "$h")
-  for setting in auto on:1 off:1 on:0.3 off:0.3; do
+  settings=(auto on:1 off:1 on:0.3 off:0.3)
+  [ -n "${BEFORE:-}" ] && settings+=(before-off:1)
+  for setting in "${settings[@]}"; do
+    bin=$clpt
     if [ "$setting" = auto ]; then
       flags=()
+    elif [ "$setting" = before-off:1 ]; then
+      bin=$BEFORE flags=(--no-nee --rr-threshold 1)
     else
       flags=(--light-sampling "${setting%:*}" --rr-threshold "${setting#*:}")
     fi
-    "$clpt" render "$file" "${size[@]}" --spp "$spp" --seed 1 -q "${flags[@]}" \
+    "$bin" render "$file" "${size[@]}" --spp "$spp" --seed 1 -q "${flags[@]}" \
       -o "$tmp/image.pfm" --report "$tmp/report.csv" 2> "$tmp/log" || { cat "$tmp/log"; exit 1; }
     estimator=$(sed -n 's/^# estimator: //p' "$tmp/report.csv" | tr ',' ';')
     last=$(tail -1 "$tmp/report.csv")

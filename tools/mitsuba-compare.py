@@ -10,7 +10,11 @@ small differences between the two renderers' pictures (pixel filters, the 2x2 su
 not count as error. A reference's own error adds to what is measured, by about 1/factor of it
 for the same estimator: the table subtracts that. Mitsuba runs its `path` integrator with its
 defaults (emitter sampling with MIS, Russian roulette from depth 5, no depth limit), the LLVM
-variant on the CPU or the CUDA variant with --cuda.
+variant on the CPU or the CUDA variant with --cuda, once per sampler of --mitsuba-samplers
+(default: its default, `independent`; its quasi-random ones are `ldsampler`, `multijitter`,
+`orthogonal`, clpt's is always quasi-random). With quasi-random samples a reference of k times
+the samples has less than 1/k of the render's error, so the subtraction below is then a little
+too generous to both renderers alike.
 
     pip install mitsuba numpy   # the LLVM variant needs libLLVM >= 16 (Debian: libllvm19)
     python3 tools/mitsuba-compare.py --clpt target/release/clpt --seconds 10 --out /tmp/cmp
@@ -41,7 +45,7 @@ def diffuse(rgb):
     return {"type": "diffuse", "reflectance": {"type": "rgb", "value": rgb}}
 
 
-def ceiling_room(mi, width, height):
+def ceiling_room(mi, width, height, sampler="independent"):
     """scenes/ceiling_room.txt for Mitsuba."""
     grey, red, blue, green = [0.75] * 3, [0.75, 0.25, 0.25], [0.25, 0.25, 0.75], [0.25, 0.75, 0.25]
     a = np.radians(30.0)  # the file's `angle`
@@ -63,7 +67,7 @@ def ceiling_room(mi, width, height):
                 "rfilter": {"type": "box"},
                 "pixel_format": "rgb",
             },
-            "sampler": {"type": "independent"},
+            "sampler": {"type": sampler},
         },
         # The room: x in [-100, 100], y in [0, 160], z in [-100, 300].
         "ceiling": rectangle(
@@ -117,6 +121,8 @@ def main():
     p.add_argument("--height", type=int, default=240)
     p.add_argument("--reference-factor", type=int, default=16)
     p.add_argument("--cuda", action="store_true", help="Mitsuba's CUDA variant (a GPU)")
+    p.add_argument("--mitsuba-samplers", default="independent",
+                   help="comma-separated Mitsuba samplers, one row each")
     p.add_argument("--clpt-args", default="", help="more options for clpt render")
     p.add_argument("--out", default="mitsuba-compare")
     args = p.parse_args()
@@ -126,18 +132,24 @@ def main():
 
     mi.set_variant("cuda_ad_rgb" if args.cuda else "llvm_ad_rgb")
     width, height = args.width, args.height
-    scene = ceiling_room(mi, width, height)
     out = lambda name: os.path.join(args.out, name)
     extra = args.clpt_args.split()
     k = args.reference_factor
 
-    # Mitsuba: compile its kernels, measure its rate, then the timed render and the reference.
-    mitsuba_render(mi, dr, scene, 4, 7, out("warm.exr"))
-    probe = max(1, int(args.seconds * 0.1 / mitsuba_render(mi, dr, scene, 1, 8, out("warm.exr"))))
-    rate = probe / mitsuba_render(mi, dr, scene, probe, 9, out("warm.exr"))
-    m_spp = max(1, int(rate * args.seconds))
-    m_seconds = mitsuba_render(mi, dr, scene, m_spp, 1, out("mitsuba.exr"))
-    mitsuba_render(mi, dr, scene, m_spp * k, 1000, out("mitsuba-ref.exr"))
+    # Mitsuba, per sampler: compile its kernels, measure its rate, then the timed render and the
+    # reference.
+    mitsuba_rows = []
+    for sampler in args.mitsuba_samplers.split(","):
+        scene = ceiling_room(mi, width, height, sampler)
+        mitsuba_render(mi, dr, scene, 4, 7, out("warm.exr"))
+        probe = max(1, int(args.seconds * 0.1 / mitsuba_render(mi, dr, scene, 1, 8, out("warm.exr"))))
+        rate = probe / mitsuba_render(mi, dr, scene, probe, 9, out("warm.exr"))
+        m_spp = max(1, int(rate * args.seconds))
+        image, ref = f"mitsuba-{sampler}.exr", f"mitsuba-{sampler}-ref.exr"
+        m_seconds = mitsuba_render(mi, dr, scene, m_spp, 1, out(image))
+        mitsuba_render(mi, dr, scene, m_spp * k, 1000, out(ref))
+        name = f"Mitsuba 3 {mi.__version__} {mi.variant()}, sampler {sampler}"
+        mitsuba_rows.append((name, image, ref, m_spp, m_seconds))
 
     # clpt: the same time, then the reference with another seed.
     size = ["--width", str(width), "--height", str(height)]
@@ -154,9 +166,7 @@ def main():
     rows = []
     for name, image, ref, spp, seconds in [
         ("clpt (" + estimator + ")", "clpt.pfm", "clpt-ref.pfm", c_spp, c_seconds),
-        ("Mitsuba 3 " + mi.__version__ + " " + mi.variant(), "mitsuba.exr", "mitsuba-ref.exr",
-         m_spp, m_seconds),
-    ]:
+    ] + mitsuba_rows:
         measured = relmse(args.clpt, out(image), out(ref))
         e = measured / (1.0 + 1.0 / k)  # less the reference's own error
         rows.append((name, spp, seconds, e, e * seconds))
@@ -166,7 +176,8 @@ def main():
     print("|---|---|---|---|---|")
     for name, spp, seconds, e, es in rows:
         print(f"| {name} | {spp} | {seconds:.2f} | {e:.3e} | {es:.3e} |")
-    print(f"Mitsuba's relMSE x s over clpt's: {rows[1][4] / rows[0][4]:.2f}")
+    for row in rows[1:]:
+        print(f"{row[0]}: relMSE x s over clpt's: {row[4] / rows[0][4]:.2f}")
 
 
 if __name__ == "__main__":

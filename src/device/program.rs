@@ -18,6 +18,7 @@ const EMBEDDED: &[(&str, &str)] = &[
     ("types.h", include_str!("../../kernels/types.h")),
     ("vecmath.h", include_str!("../../kernels/vecmath.h")),
     ("texture.h", include_str!("../../kernels/texture.h")),
+    ("sobol.h", include_str!("../../kernels/sobol.h")),
     ("rng.h", include_str!("../../kernels/rng.h")),
     ("ray.h", include_str!("../../kernels/ray.h")),
     ("camera.h", include_str!("../../kernels/camera.h")),

@@ -23,12 +23,13 @@
 use super::metrics::REL_EPSILON;
 use std::fmt;
 
-/// Samples per pixel each candidate renders in the trial: two groups of four, each of which
-/// covers the pixel's four sub-pixels once. The difference of the two groups' sums measures the
-/// variance of the stratified estimate the render makes; the plain sample variance would count
-/// the differences between sub-pixels too, the same for every candidate, and blur the contrast
-/// between them (on smallpt it read pure path tracing's variance 1.3 times light sampling's
-/// where the render measures 1.9).
+/// Samples per pixel each candidate renders in the trial: two groups of four, one from each of
+/// the pixel's two independent quasi-random sequences (kernels/rng.h). The difference of the
+/// two groups' sums measures the variance of the estimate the render makes; the plain sample
+/// variance would count the spread within the pixel that the quasi-random samples integrate
+/// away, and blur the contrast between candidates (on smallpt it read pure path tracing's
+/// variance 1.3 times light sampling's where the render measures 1.9). Quasi-random samples
+/// gain more with more samples, so the trial's figures are those of its own few samples.
 pub const TRIAL_SPP: u32 = 8;
 
 /// The most samples per pixel a trial takes, however long the render.
@@ -273,10 +274,11 @@ pub struct TrialFilm {
 /// its trial is taken to have missed rare paths.
 const MISSED_SIGMAS: f64 = 3.0;
 
-/// An unbiased estimate of the variance of one sample of the render's stratified estimate, in
-/// one pixel and channel, from the sums of its n samples and of those of the odd groups of four
-/// (n/2 of them): with σ² = (1/4) Σ σ_k² (σ_k² the variance of sub-pixel k), each half's mean
-/// has variance σ² / (n/2), so their difference squared has expectation 4σ² / n.
+/// An unbiased estimate of n times the variance of the mean of n samples (the variance "per
+/// sample" of the render's estimate), in one pixel and channel, from the sums of its n samples
+/// and of those of the odd groups of four (n/2 of them): the two halves are independent and
+/// alike, each half's mean has variance σ² / (n/2), so their difference squared has
+/// expectation 4σ² / n.
 fn stratified_variance(sum: f32, sum_odd: f32, n: f64) -> f64 {
     let half = n / 2.0;
     let difference = (f64::from(sum) - 2.0 * f64::from(sum_odd)) / half;

@@ -78,12 +78,13 @@ pub fn tent(u: f64) -> f64 {
     }
 }
 
-/// The unnormalised direction through image point (fx, fy) in [-1/2, 1/2]^2 (pinhole).
-pub fn camera_direction(cam: &CameraBasis, px: u32, py: u32, sub: u32, u: [f64; 2]) -> DVec3 {
-    let sx = (sub & 1) as f64;
-    let sy = (sub >> 1) as f64;
-    let fx = ((sx + 0.5 + tent(u[0])) * 0.5 + px as f64) / cam.width as f64 - 0.5;
-    let fy = ((sy + 0.5 + tent(u[1])) * 0.5 + py as f64) / cam.height as f64 - 0.5;
+/// The unnormalised direction through the image point that u picks in pixel (px, py): the
+/// top bit of each number picks the 2x2 sub-pixel, the rest jitters with the tent (pinhole).
+pub fn camera_direction(cam: &CameraBasis, px: u32, py: u32, u: [f64; 2]) -> DVec3 {
+    let sx = if u[0] < 0.5 { 0.0 } else { 1.0 };
+    let sy = if u[1] < 0.5 { 0.0 } else { 1.0 };
+    let fx = ((sx + 0.5 + tent(2.0 * u[0] - sx)) * 0.5 + px as f64) / cam.width as f64 - 0.5;
+    let fy = ((sy + 0.5 + tent(2.0 * u[1] - sy)) * 0.5 + py as f64) / cam.height as f64 - 0.5;
     cam.cx * fx + cam.cy * fy + cam.forward
 }
 
@@ -105,8 +106,8 @@ pub fn concentric_disk(u: [f64; 2]) -> (f64, f64) {
 }
 
 /// A primary ray (origin, unit direction) as camera.h defines it.
-pub fn camera_ray(cam: &CameraBasis, px: u32, py: u32, sub: u32, u: [f64; 4]) -> (DVec3, DVec3) {
-    let d = camera_direction(cam, px, py, sub, [u[0], u[1]]);
+pub fn camera_ray(cam: &CameraBasis, px: u32, py: u32, u: [f64; 4]) -> (DVec3, DVec3) {
+    let d = camera_direction(cam, px, py, [u[0], u[1]]);
     if cam.focus_distance <= 0.0 {
         return (cam.origin, d.normalize());
     }
@@ -124,18 +125,17 @@ fn cosine_direction(n: DVec3, u1: f64, u2: f64) -> DVec3 {
     (t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u2).max(0.0).sqrt()).normalize()
 }
 
-/// One path sample through pixel (px, py), sample index `sample`, in f64 with `rng`.
+/// One path sample through pixel (px, py), in f64 with `rng`.
 pub fn trace_path(
     scene: &PackedScene,
     px: u32,
     py: u32,
-    sample: u32,
     rr_depth: u32,
     rng: &mut impl Rng,
 ) -> DVec3 {
     let cam = &scene.camera;
     let u: [f64; 4] = [rng.random(), rng.random(), rng.random(), rng.random()];
-    let (mut o, mut d) = camera_ray(cam, px, py, sample & 3, u);
+    let (mut o, mut d) = camera_ray(cam, px, py, u);
     let mut radiance = DVec3::ZERO;
     let mut throughput = DVec3::ONE;
     for depth in 0..100_000u32 {
