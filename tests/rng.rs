@@ -56,27 +56,33 @@ fn philox_known_answers() {
     }
 }
 
-/// `dims` blocks (4 numbers each) for `pixels` pixels of one sample index.
-fn stream(seed: u64, sample: u32, pixels: usize, dims: u32) -> Vec<[f32; 4]> {
+/// Runs the probe `name` (arguments: the seed's two words, then `args`, then the output) on
+/// `items` work-items that write `dims` blocks of four numbers each.
+fn rng_probe(name: &str, seed: u64, args: &[u32], items: usize, dims: u32) -> Vec<[f32; 4]> {
     let device = common::device();
     let program = common::probes(&device);
-    let out = common::output::<Float4>(&device, pixels * dims as usize);
-    let kernel = ocl::Kernel::builder()
+    let out = common::output::<Float4>(&device, items * dims as usize);
+    let mut builder = ocl::Kernel::builder();
+    builder
         .program(&program)
-        .name("probe_rng_stream")
+        .name(name)
         .queue(device.queue.clone())
         .arg(seed as u32)
-        .arg((seed >> 32) as u32)
-        .arg(sample)
-        .arg(dims)
-        .arg(&out)
-        .build()
-        .unwrap();
-    common::run(&kernel, pixels);
+        .arg((seed >> 32) as u32);
+    for &a in args {
+        builder.arg(a);
+    }
+    let kernel = builder.arg(dims).arg(&out).build().unwrap();
+    common::run(&kernel, items);
     common::read(&out)
         .iter()
         .map(|v| [v[0], v[1], v[2], v[3]])
         .collect()
+}
+
+/// `dims` blocks (4 numbers each) for `pixels` pixels of one sample index.
+fn stream(seed: u64, sample: u32, pixels: usize, dims: u32) -> Vec<[f32; 4]> {
+    rng_probe("probe_rng_stream", seed, &[sample], pixels, dims)
 }
 
 /// Pearson's chi-square statistic of `counts` against a uniform expectation.
@@ -229,26 +235,7 @@ fn sobol_points_follow_the_joe_kuo_direction_numbers() {
 
 /// `dims` blocks of samples `start..start + count` of one pixel.
 fn samples(seed: u64, pixel: u32, start: u32, count: usize, dims: u32) -> Vec<[f32; 4]> {
-    let device = common::device();
-    let program = common::probes(&device);
-    let out = common::output::<Float4>(&device, count * dims as usize);
-    let kernel = ocl::Kernel::builder()
-        .program(&program)
-        .name("probe_rng_samples")
-        .queue(device.queue.clone())
-        .arg(seed as u32)
-        .arg((seed >> 32) as u32)
-        .arg(pixel)
-        .arg(start)
-        .arg(dims)
-        .arg(&out)
-        .build()
-        .unwrap();
-    common::run(&kernel, count);
-    common::read(&out)
-        .iter()
-        .map(|v| [v[0], v[1], v[2], v[3]])
-        .collect()
+    rng_probe("probe_rng_samples", seed, &[pixel, start], count, dims)
 }
 
 /// True if the points put exactly one point in each box of a 2^a x 2^(m - a) grid, for every
