@@ -4,10 +4,11 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use clpt::device::program::{CacheUse, KernelSources};
 use clpt::device::{self};
+use clpt::output;
 use clpt::render::bench::{BenchResult, bench_scene};
 use clpt::render::metrics::{self, LinearImage};
 use clpt::render::{
-    ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter, efficiency, report,
+    ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter, efficiency, film, report,
     strategy::{LightSampling, Roulette},
 };
 use clpt::scene::{Scene, builtin};
@@ -318,6 +319,18 @@ fn render(args: &RenderArgs) -> Result<()> {
         .output
         .clone()
         .unwrap_or_else(|| default_output(args.scene.as_deref()));
+    // Every output is checked before any work: a typo in a folder or format must not cost a
+    // render.
+    output::check_writable(&output, film::FORMATS)?;
+    if let Some(path) = &args.report {
+        output::check_writable(path, report::REPORT_FORMATS)?;
+    }
+    if let Some(path) = &args.plot {
+        output::check_writable(path, report::PLOT_FORMATS)?;
+    }
+    if let Some(path) = &args.dump_kernel {
+        output::check_writable(path, &[])?;
+    }
     let (device, sources) = args.device.open()?;
     if args.verbose {
         eprintln!("device: {}", device.description);
@@ -334,8 +347,7 @@ fn render(args: &RenderArgs) -> Result<()> {
                 name.push(".no-nee");
                 PathBuf::from(name)
             };
-            std::fs::write(&file, &e.program.source.text)
-                .with_context(|| format!("writing the program source to {}", file.display()))?;
+            output::write_bytes(&file, e.program.source.text.as_bytes())?;
         }
     }
     if args.verbose {
@@ -472,6 +484,9 @@ fn render(args: &RenderArgs) -> Result<()> {
 }
 
 fn compare(args: &CompareArgs) -> Result<()> {
+    if let Some(path) = &args.error_image {
+        output::check_writable(path, &["png"])?;
+    }
     let image = LinearImage::read(&args.image)?;
     let reference = LinearImage::read(&args.reference)?;
     let m = image.metrics(&reference)?;
@@ -489,6 +504,9 @@ fn compare(args: &CompareArgs) -> Result<()> {
 }
 
 fn plot(args: &PlotArgs) -> Result<()> {
+    if let Some(path) = &args.output {
+        output::check_writable(path, report::PLOT_FORMATS)?;
+    }
     let runs = args
         .runs
         .iter()

@@ -61,10 +61,12 @@ pub fn load(dir: &Path, key: &str) -> Option<Vec<u8>> {
     std::fs::read(dir.join(key)).ok().filter(|b| !b.is_empty())
 }
 
-/// Stores `binary` under `dir` for `key`.
-pub fn store(dir: &Path, key: &str, binary: &[u8]) -> std::io::Result<()> {
-    std::fs::create_dir_all(dir)?;
-    let tmp = dir.join(format!("{key}.{}.tmp", std::process::id()));
-    std::fs::write(&tmp, binary)?;
-    std::fs::rename(&tmp, dir.join(key))
+/// Stores `binary` under `dir` for `key`, atomically (crate::output): a crash never leaves a
+/// cut binary for a later run to load.
+pub fn store(dir: &Path, key: &str, binary: &[u8]) -> crate::error::Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| crate::error::Error::Write {
+        path: dir.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    crate::output::write_bytes(&dir.join(key), binary)
 }

@@ -2,7 +2,7 @@
 //! from it (chosen by extension): `.png` and `.ppm` (8-bit, the original's tone map: clamp to
 //! [0, 1] and gamma 2.2), `.pfm` and `.exr` (linear float radiance, for comparison and merging).
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use std::io::Write;
 use std::path::Path;
 
@@ -70,54 +70,56 @@ impl Film {
         (clamped.powf(1.0 / 2.2) * 255.0 + 0.5) as u8
     }
 
-    /// Writes the film; the format follows the extension (png, ppm, pfm, exr).
+    /// Writes the film atomically (crate::output); the format follows the extension, one of
+    /// [`FORMATS`].
     pub fn write(&self, path: &Path) -> Result<()> {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .unwrap_or_default();
-        let fail = |message: String| Error::Write {
-            path: path.to_path_buf(),
-            message,
-        };
-        match ext.as_str() {
-            "png" => {
-                let bytes: Vec<u8> = self.rgb_top_down().into_iter().map(Film::to_8bit).collect();
-                image::RgbImage::from_raw(self.width, self.height, bytes)
-                    .ok_or_else(|| fail("image size mismatch".into()))?
-                    .save_with_format(path, image::ImageFormat::Png)
-                    .map_err(|e| fail(e.to_string()))
-            }
-            "ppm" => {
-                let mut data = format!("P6\n{} {}\n255\n", self.width, self.height).into_bytes();
-                data.extend(self.rgb_top_down().into_iter().map(Film::to_8bit));
-                std::fs::write(path, data).map_err(|e| fail(e.to_string()))
-            }
-            "pfm" => {
-                // PFM stores rows bottom to top; a negative scale means little-endian.
-                let mut data = Vec::new();
-                write!(data, "PF\n{} {}\n-1.0\n", self.width, self.height)
-                    .map_err(|e| fail(e.to_string()))?;
-                for y in 0..self.height {
-                    for x in 0..self.width {
-                        for c in self.mean(x, y) {
-                            data.extend_from_slice(&(c as f32).to_le_bytes());
-                        }
+        let ext = crate::output::extension(path);
+        let encode =
+            |out: &mut std::io::BufWriter<std::fs::File>| -> std::result::Result<(), String> {
+                match ext.as_str() {
+                    "png" => {
+                        let bytes: Vec<u8> =
+                            self.rgb_top_down().into_iter().map(Film::to_8bit).collect();
+                        image::RgbImage::from_raw(self.width, self.height, bytes)
+                            .ok_or("image size mismatch")?
+                            .write_to(out, image::ImageFormat::Png)
+                            .map_err(|e| e.to_string())
                     }
+                    "ppm" => {
+                        let mut data =
+                            format!("P6\n{} {}\n255\n", self.width, self.height).into_bytes();
+                        data.extend(self.rgb_top_down().into_iter().map(Film::to_8bit));
+                        out.write_all(&data).map_err(|e| e.to_string())
+                    }
+                    "pfm" => {
+                        // PFM stores rows bottom to top; a negative scale means little-endian.
+                        let mut data =
+                            format!("PF\n{} {}\n-1.0\n", self.width, self.height).into_bytes();
+                        for y in 0..self.height {
+                            for x in 0..self.width {
+                                for c in self.mean(x, y) {
+                                    data.extend_from_slice(&(c as f32).to_le_bytes());
+                                }
+                            }
+                        }
+                        out.write_all(&data).map_err(|e| e.to_string())
+                    }
+                    _ => image::Rgb32FImage::from_raw(self.width, self.height, self.rgb_top_down())
+                        .ok_or("image size mismatch")?
+                        .write_to(out, image::ImageFormat::OpenExr)
+                        .map_err(|e| e.to_string()),
                 }
-                std::fs::write(path, data).map_err(|e| fail(e.to_string()))
-            }
-            "exr" => image::Rgb32FImage::from_raw(self.width, self.height, self.rgb_top_down())
-                .ok_or_else(|| fail("image size mismatch".into()))?
-                .save_with_format(path, image::ImageFormat::OpenExr)
-                .map_err(|e| fail(e.to_string())),
-            _ => Err(fail(format!(
-                "unknown image format `.{ext}`: use .png, .ppm, .pfm or .exr"
-            ))),
+            };
+        if !FORMATS.contains(&ext.as_str()) {
+            return Err(crate::output::unknown_format(path, FORMATS_LISTED));
         }
+        crate::output::write_atomically(path, encode)
     }
 }
+
+/// The image formats a film is written in, by extension.
+pub const FORMATS: &[&str] = &["png", "ppm", "pfm", "exr"];
+const FORMATS_LISTED: &str = ".png, .ppm, .pfm or .exr";
 
 #[cfg(test)]
 mod tests {

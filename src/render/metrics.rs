@@ -102,13 +102,13 @@ impl LinearImage {
                 false_colour(((rel.max(1e-6).log10() + 6.0) / 6.0).clamp(0.0, 1.0))
             })
             .collect();
-        image::RgbImage::from_raw(self.width, self.height, bytes)
-            .ok_or_else(|| Error::Invalid("image size mismatch".into()))?
-            .save(path)
-            .map_err(|e| Error::Write {
-                path: path.to_path_buf(),
-                message: e.to_string(),
-            })
+        let image = image::RgbImage::from_raw(self.width, self.height, bytes)
+            .ok_or_else(|| Error::Invalid("image size mismatch".into()))?;
+        crate::output::write_atomically(path, |out| {
+            image
+                .write_to(out, image::ImageFormat::Png)
+                .map_err(|e| e.to_string())
+        })
     }
 
     fn check_size(&self, other: &LinearImage) -> Result<()> {

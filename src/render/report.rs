@@ -7,6 +7,7 @@
 use super::PassReport;
 use super::strategy::Choice;
 use crate::error::{Error, Result};
+use crate::output::extension;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -14,7 +15,11 @@ use std::path::Path;
 pub const CSV_HEADER: &str =
     "pass,seconds,spp,spp_per_second,rmse_estimate,relmse_estimate,rmse,relmse,mae";
 
-/// Writes `rows` as CSV or JSON, by the extension of `path`, with the estimator the render ran
+/// The formats of a report and of a plot, by extension.
+pub const REPORT_FORMATS: &[&str] = &["csv", "json"];
+pub const PLOT_FORMATS: &[&str] = &["svg", "png"];
+
+/// Writes `rows` as CSV or JSON, by the extension of `path` (atomically), with the estimator the render ran
 /// and what its trial measured (CSV: `#` lines before the header; JSON: an object).
 pub fn write_report(path: &Path, rows: &[PassReport], choice: &Choice) -> Result<()> {
     let measured = |r: &PassReport, f: fn(&super::Metrics) -> f64| {
@@ -103,9 +108,9 @@ pub fn write_report(path: &Path, rows: &[PassReport], choice: &Choice) -> Result
                 items.join(",\n")
             )
         }
-        other => return Err(unknown(path, other, ".csv or .json")),
+        _ => return Err(crate::output::unknown_format(path, ".csv or .json")),
     };
-    std::fs::write(path, text).map_err(|e| write_error(path, e))
+    crate::output::write_bytes(path, text.as_bytes())
 }
 
 /// A JSON number, or null for a value JSON cannot hold (NaN, infinities).
@@ -224,14 +229,13 @@ pub fn write_efficiency_plot(
 fn draw(path: &Path, series: &[Series], title: &str, y_label: &str) -> Result<()> {
     let plot = Plot::new(series);
     match extension(path).as_str() {
-        "svg" => {
-            std::fs::write(path, plot.svg(series, title, y_label)).map_err(|e| write_error(path, e))
-        }
-        "png" => plot
-            .png(series)
-            .save(path)
-            .map_err(|e| write_error(path, e)),
-        other => Err(unknown(path, other, ".svg or .png")),
+        "svg" => crate::output::write_bytes(path, plot.svg(series, title, y_label).as_bytes()),
+        "png" => crate::output::write_atomically(path, |out| {
+            plot.png(series)
+                .write_to(out, image::ImageFormat::Png)
+                .map_err(|e| e.to_string())
+        }),
+        _ => Err(crate::output::unknown_format(path, ".svg or .png")),
     }
 }
 
@@ -447,25 +451,4 @@ fn escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
-}
-
-fn extension(path: &Path) -> String {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-        .unwrap_or_default()
-}
-
-fn unknown(path: &Path, ext: &str, wanted: &str) -> Error {
-    Error::Write {
-        path: path.to_path_buf(),
-        message: format!("unknown format `.{ext}`: use {wanted}"),
-    }
-}
-
-fn write_error(path: &Path, e: impl std::fmt::Display) -> Error {
-    Error::Write {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    }
 }

@@ -162,17 +162,21 @@ pub fn torus_knot(p: u32, q: u32, tube_radius: f64, rings: u32, sides: u32) -> T
     tube("torus_knot", curve, tube_radius, rings, sides)
 }
 
-/// Writes a mesh as an OBJ file (positions and faces, 1-based).
-pub fn write_obj(mesh: &TriangleMesh, path: &Path, comment: &str) -> std::io::Result<()> {
-    let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
-    for line in comment.lines() {
-        writeln!(out, "# {line}")?;
-    }
-    for p in &mesh.positions {
-        writeln!(out, "v {} {} {}", p[0], p[1], p[2])?;
-    }
-    for t in &mesh.triangles {
-        writeln!(out, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
-    }
-    out.flush()
+/// Writes a mesh as an OBJ file (positions and faces, 1-based), atomically (crate::output).
+pub fn write_obj(mesh: &TriangleMesh, path: &Path, comment: &str) -> crate::error::Result<()> {
+    crate::output::write_atomically(path, |out| {
+        let mut write = || -> std::io::Result<()> {
+            for line in comment.lines() {
+                writeln!(out, "# {line}")?;
+            }
+            for p in &mesh.positions {
+                writeln!(out, "v {} {} {}", p[0], p[1], p[2])?;
+            }
+            for t in &mesh.triangles {
+                writeln!(out, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
+            }
+            Ok(())
+        };
+        write().map_err(|e| e.to_string())
+    })
 }
