@@ -275,9 +275,13 @@ pub struct Renderer<'d> {
     errors: ErrorKernel,
     // The kernels hold these buffers' handles; they live as long as the kernels do.
     scene_buffers: SceneBuffers,
+    /// The film: per pixel the sums of the samples (`sum` + `sum_lo`, compensated), of their
+    /// squares, and of the odd groups' samples (`sum_odd` + `sum_odd_lo`), float4 each.
     sum: ocl::Buffer<f32>,
+    sum_lo: ocl::Buffer<f32>,
     sum_sq: ocl::Buffer<f32>,
     sum_odd: ocl::Buffer<f32>,
+    sum_odd_lo: ocl::Buffer<f32>,
     bad: ocl::Buffer<u32>,
     bad_first: ocl::Buffer<u32>,
     options: RenderOptions,
@@ -296,8 +300,7 @@ impl ErrorKernel {
         device: &Device,
         program: &ocl::Program,
         packed: &PackedScene,
-        sum: &ocl::Buffer<f32>,
-        sum_odd: &ocl::Buffer<f32>,
+        film: [&ocl::Buffer<f32>; 4],
         options: &RenderOptions,
     ) -> Result<Self> {
         let (width, height) = (packed.camera.width, packed.camera.height);
@@ -332,13 +335,16 @@ impl ErrorKernel {
             .len(height as usize * 5)
             .build()
             .map_err(fail)?;
-        let kernel = ocl::Kernel::builder()
+        let mut builder = ocl::Kernel::builder();
+        builder
             .program(program)
             .name("error_rows")
             .queue(device.queue.clone())
-            .global_work_size(height as usize)
-            .arg(sum)
-            .arg(sum_odd)
+            .global_work_size(height as usize);
+        for buffer in film {
+            builder.arg(buffer);
+        }
+        let kernel = builder
             .arg(&reference)
             .arg(options.reference.is_some() as u32)
             .arg(width)
@@ -426,7 +432,8 @@ impl<'d> Renderer<'d> {
                 .build()
                 .map_err(fail)
         };
-        let (sum, sum_sq, sum_odd) = (film_buffer()?, film_buffer()?, film_buffer()?);
+        let (sum, sum_lo, sum_sq) = (film_buffer()?, film_buffer()?, film_buffer()?);
+        let (sum_odd, sum_odd_lo) = (film_buffer()?, film_buffer()?);
         let (bad, bad_first) = (counter_buffer()?, counter_buffer()?);
         // One program per light-sampling setting the candidates need, light sampling first.
         let mut estimators = Vec::new();
@@ -462,8 +469,10 @@ impl<'d> Renderer<'d> {
             }
             let kernel = builder
                 .arg(&sum)
+                .arg(&sum_lo)
                 .arg(&sum_sq)
                 .arg(&sum_odd)
+                .arg(&sum_odd_lo)
                 .arg(&bad)
                 .arg(&bad_first)
                 .arg_named("sample_start", 0u32)
@@ -484,8 +493,7 @@ impl<'d> Renderer<'d> {
             device,
             &estimators[0].program.program,
             &packed,
-            &sum,
-            &sum_odd,
+            [&sum, &sum_lo, &sum_odd, &sum_odd_lo],
             &options,
         )?;
         let strategy = candidates[0];
@@ -499,8 +507,10 @@ impl<'d> Renderer<'d> {
             errors,
             scene_buffers,
             sum,
+            sum_lo,
             sum_sq,
             sum_odd,
+            sum_odd_lo,
             bad,
             bad_first,
             options,
@@ -592,7 +602,13 @@ impl<'d> Renderer<'d> {
     /// Zeroes the film and the non-finite counters.
     fn clear_film(&self) -> Result<()> {
         let fail = |e: ocl::Error| Error::opencl("clearing the film", e);
-        for film in [&self.sum, &self.sum_sq, &self.sum_odd] {
+        for film in [
+            &self.sum,
+            &self.sum_lo,
+            &self.sum_sq,
+            &self.sum_odd,
+            &self.sum_odd_lo,
+        ] {
             film.cmd().fill(0.0f32, None).enq().map_err(fail)?;
         }
         for counter in [&self.bad, &self.bad_first] {
@@ -674,6 +690,8 @@ impl<'d> Renderer<'d> {
                 let flat = self.read_rows(buffer, rows)?;
                 Ok(flat.chunks_exact(4).map(|c| [c[0], c[1], c[2]]).collect())
             };
+            // The trial's few samples (at most 64) need no compensation: `sum` alone is exact
+            // enough.
             films.push(TrialFilm {
                 sum: rgb(&self.sum)?,
                 sum_odd: rgb(&self.sum_odd)?,
@@ -831,6 +849,21 @@ impl<'d> Renderer<'d> {
             .collect())
     }
 
+    /// A compensated film sum read back: hi + lo added in f64, then rounded once (relative
+    /// error 6e-8, however many samples it holds).
+    fn read_compensated(
+        &self,
+        hi: &ocl::Buffer<f32>,
+        lo: &ocl::Buffer<f32>,
+    ) -> Result<Vec<[f32; 4]>> {
+        let (hi, lo) = (self.read(hi)?, self.read(lo)?);
+        Ok(hi
+            .iter()
+            .zip(&lo)
+            .map(|(h, l)| std::array::from_fn(|c| (f64::from(h[c]) + f64::from(l[c])) as f32))
+            .collect())
+    }
+
     /// The non-finite samples the kernel counted, and the first of them.
     fn nonfinite(&self) -> Result<NonFinite> {
         let read = |buffer: &ocl::Buffer<u32>| -> Result<Vec<u32>> {
@@ -866,7 +899,7 @@ impl<'d> Renderer<'d> {
             width: self.width(),
             height: self.height(),
             spp,
-            sum: self.read(&self.sum)?,
+            sum: self.read_compensated(&self.sum, &self.sum_lo)?,
             sum_sq: self.read(&self.sum_sq)?,
         })
     }
