@@ -6,6 +6,7 @@ use clpt::device::program::{CacheUse, KernelSources};
 use clpt::device::{self};
 use clpt::output;
 use clpt::render::bench::{BenchResult, bench_scene};
+use clpt::render::film_file::FilmMeta;
 use clpt::render::metrics::{self, LinearImage};
 use clpt::render::{
     ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter, efficiency, film, report,
@@ -203,6 +204,10 @@ struct RenderArgs {
     /// Plot error against time (log-log) as SVG or PNG.
     #[arg(long, value_name = "FILE")]
     plot: Option<PathBuf>,
+    /// Write the film file (OpenEXR): the mean image for viewers, and every sum the render
+    /// accumulated, bit for bit, with what made it (scene, options, seed, samples, device).
+    #[arg(long, value_name = "FILE.exr")]
+    film: Option<PathBuf>,
     #[command(flatten)]
     sampling: SamplingArgs,
     #[command(flatten)]
@@ -331,6 +336,9 @@ fn render(args: &RenderArgs) -> Result<()> {
     if let Some(path) = &args.dump_kernel {
         output::check_writable(path, &[])?;
     }
+    if let Some(path) = &args.film {
+        output::check_writable(path, &["exr"])?;
+    }
     let (device, sources) = args.device.open()?;
     if args.verbose {
         eprintln!("device: {}", device.description);
@@ -428,6 +436,18 @@ fn render(args: &RenderArgs) -> Result<()> {
     })?;
     bar.finish_and_clear();
     film.write(&output)?;
+    if let Some(path) = &args.film {
+        let meta = FilmMeta::of_render(
+            args.scene.as_deref(),
+            &options,
+            stats.choice.strategy(),
+            (film.width, film.height),
+            (0, film.spp),
+            &device.description.name,
+            stats.elapsed.as_secs_f64(),
+        )?;
+        renderer.film_state()?.write(path, &meta)?;
+    }
     if let Some(path) = &args.report {
         report::write_report(path, &stats.report, &stats.choice)?;
     }

@@ -146,3 +146,68 @@ fn outputs_are_checked_before_any_work() {
     assert!(entries(&dir).is_empty(), "{:?}", entries(&dir));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Reads a PFM as written by clpt (little-endian, rows bottom to top): rgb per pixel.
+fn read_pfm(path: &Path) -> Vec<[f32; 3]> {
+    let bytes = std::fs::read(path).unwrap();
+    let header_end = bytes
+        .iter()
+        .enumerate()
+        .filter(|&(_, &b)| b == b'\n')
+        .nth(2)
+        .unwrap()
+        .0;
+    bytes[header_end + 1..]
+        .chunks_exact(12)
+        .map(|c| {
+            std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap()))
+        })
+        .collect()
+}
+
+#[test]
+fn the_film_file_holds_the_render_bit_for_bit() {
+    use clpt::render::film_file::FilmState;
+    let dir = scratch("film");
+    let (image, film) = (dir.join("image.pfm"), dir.join("film.exr"));
+    let run = render(&image, &["--film", film.to_str().unwrap(), "--seed", "9"]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let (state, meta) = FilmState::read(&film).unwrap();
+    assert_eq!((state.width, state.height), (8, 6));
+    assert_eq!(meta.samples, (0, 8));
+    assert_eq!(meta.seed, 9);
+    assert_eq!(meta.version, env!("CARGO_PKG_VERSION"));
+    assert!(
+        meta.options.starts_with("8x6; light sampling"),
+        "{}",
+        meta.options
+    );
+    assert_eq!(meta.scene_fingerprint.len(), 32);
+    // The sums give the image clpt wrote, bit for bit (PFM rows run bottom to top, as the film).
+    let from_film = state.film(8);
+    let pfm = read_pfm(&image);
+    for (i, p) in pfm.iter().enumerate() {
+        let (x, y) = (i as u32 % 8, i as u32 / 8);
+        let m = from_film.mean(x, y).map(|c| c as f32);
+        assert_eq!(*p, m, "pixel ({x}, {y})");
+    }
+    assert!(state.sum.iter().any(|s| s[0] > 0.0), "an empty film");
+    // A round trip keeps every bit, and an ordinary EXR reader sees the mean image.
+    let again = dir.join("again.exr");
+    state.write(&again, &meta).unwrap();
+    assert_eq!(FilmState::read(&again).unwrap(), (state.clone(), meta));
+    let viewer = image::open(&film).unwrap().to_rgb32f();
+    for (i, p) in viewer.pixels().enumerate() {
+        let (x, row) = (i as u32 % 8, i as u32 / 8);
+        let m = from_film.mean(x, 5 - row).map(|c| c as f32);
+        assert_eq!(p.0, m, "viewer pixel ({x}, row {row})");
+    }
+    // Not a clpt film: refused with the reason.
+    let err = FilmState::read(&image).unwrap_err().to_string();
+    assert!(err.contains("film file"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -37,12 +37,17 @@ pub fn key(device: &Device, source: &str, options: &str) -> String {
         options,
         source,
     ];
-    // Two FNV-1a hashes from different offsets; each part is followed by its length so that
-    // moving text from one part to the next changes the key.
+    format!("{}.bin", fingerprint(&parts.map(str::as_bytes)))
+}
+
+/// A 128-bit fingerprint of `parts`, as 32 hex digits: two FNV-1a hashes from different
+/// offsets, each part followed by its length so that moving bytes from one part to the next
+/// changes it. Not cryptographic: it tells files and settings apart, it does not guard them.
+pub fn fingerprint(parts: &[&[u8]]) -> String {
     let hash = |offset: u64| {
         let mut h = offset;
         for part in parts {
-            for byte in part.bytes().chain((part.len() as u64).to_le_bytes()) {
+            for &byte in part.iter().chain(&(part.len() as u64).to_le_bytes()) {
                 h ^= byte as u64;
                 h = h.wrapping_mul(0x0000_0100_0000_01b3);
             }
@@ -50,7 +55,7 @@ pub fn key(device: &Device, source: &str, options: &str) -> String {
         h
     };
     format!(
-        "{:016x}{:016x}.bin",
+        "{:016x}{:016x}",
         hash(0xcbf2_9ce4_8422_2325),
         hash(0x6c62_272e_07bb_0142)
     )

@@ -12,6 +12,7 @@ pub mod bench;
 pub mod efficiency;
 pub mod features;
 pub mod film;
+pub mod film_file;
 pub mod metrics;
 pub mod report;
 pub mod strategy;
@@ -348,7 +349,7 @@ impl ErrorKernel {
             .arg(&reference)
             .arg(options.reference.is_some() as u32)
             .arg(width)
-            .arg(0u32)
+            .arg_named("spp", 0u32)
             .arg(metrics::REL_EPSILON)
             .arg(&rows)
             .build()
@@ -364,7 +365,7 @@ impl ErrorKernel {
     /// The estimate (and with a reference the measured error) after `spp` samples.
     fn measure(&self, spp: u32, pixels: f64) -> Result<(ErrorEstimate, Option<Metrics>)> {
         let fail = |e: ocl::Error| Error::opencl("estimating the error", e);
-        self.kernel.set_arg(5, spp).map_err(fail)?;
+        self.kernel.set_arg("spp", spp).map_err(fail)?;
         // SAFETY: every buffer is alive and sized for the image's rows; one work-item a row.
         unsafe { self.kernel.enq() }.map_err(fail)?;
         let mut rows = vec![0.0f32; self.rows.len()];
@@ -849,32 +850,24 @@ impl<'d> Renderer<'d> {
             .collect())
     }
 
-    /// A compensated film sum read back: hi + lo added in f64, then rounded once (relative
-    /// error 6e-8, however many samples it holds).
-    fn read_compensated(
-        &self,
-        hi: &ocl::Buffer<f32>,
-        lo: &ocl::Buffer<f32>,
-    ) -> Result<Vec<[f32; 4]>> {
-        let (hi, lo) = (self.read(hi)?, self.read(lo)?);
-        Ok(hi
-            .iter()
-            .zip(&lo)
-            .map(|(h, l)| std::array::from_fn(|c| (f64::from(h[c]) + f64::from(l[c])) as f32))
-            .collect())
+    /// The whole film as the device holds it (to write a film file).
+    pub fn film_state(&self) -> Result<film_file::FilmState> {
+        Ok(film_file::FilmState {
+            width: self.width(),
+            height: self.height(),
+            sum: self.read(&self.sum)?,
+            sum_lo: self.read(&self.sum_lo)?,
+            sum_sq: self.read(&self.sum_sq)?,
+            sum_odd: self.read(&self.sum_odd)?,
+            sum_odd_lo: self.read(&self.sum_odd_lo)?,
+            bad: read_counters(&self.bad)?,
+            bad_first: read_counters(&self.bad_first)?,
+        })
     }
 
     /// The non-finite samples the kernel counted, and the first of them.
     fn nonfinite(&self) -> Result<NonFinite> {
-        let read = |buffer: &ocl::Buffer<u32>| -> Result<Vec<u32>> {
-            let mut v = vec![0u32; buffer.len()];
-            buffer
-                .read(&mut v)
-                .enq()
-                .map_err(|e| Error::opencl("reading the sample counters back", e))?;
-            Ok(v)
-        };
-        let (bad, first) = (read(&self.bad)?, read(&self.bad_first)?);
+        let (bad, first) = (read_counters(&self.bad)?, read_counters(&self.bad_first)?);
         let width = self.width() as usize;
         let height = self.height() as usize;
         let mut out = NonFinite::default();
@@ -895,12 +888,16 @@ impl<'d> Renderer<'d> {
     }
 
     fn read_film(&self, spp: u32) -> Result<Film> {
-        Ok(Film {
-            width: self.width(),
-            height: self.height(),
-            spp,
-            sum: self.read_compensated(&self.sum, &self.sum_lo)?,
-            sum_sq: self.read(&self.sum_sq)?,
-        })
+        Ok(self.film_state()?.film(spp))
     }
+}
+
+/// A per-pixel counter buffer read back.
+fn read_counters(buffer: &ocl::Buffer<u32>) -> Result<Vec<u32>> {
+    let mut v = vec![0u32; buffer.len()];
+    buffer
+        .read(&mut v)
+        .enq()
+        .map_err(|e| Error::opencl("reading the sample counters back", e))?;
+    Ok(v)
 }
