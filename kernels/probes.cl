@@ -42,6 +42,13 @@ __kernel void probe_rng_samples(uint seed_lo, uint seed_hi, uint pixel, uint sam
     }
 }
 
+/* The unscrambled Sobol point `index`, from sobol.h's table and loop (only tests need it). */
+inline uint4 sobol4(uint index) {
+    const uint4 x = sobol4_reversed(reverse_bits32(index));
+    return (uint4)(reverse_bits32(x.x), reverse_bits32(x.y), reverse_bits32(x.z),
+                   reverse_bits32(x.w));
+}
+
 /* The unscrambled Sobol points of the given indices (sobol.h). */
 __kernel void probe_sobol(__global const uint* index, __global uint4* out) {
     const uint i = get_global_id(0);

@@ -100,11 +100,4 @@ inline uint4 scrambled_sobol4(uint j, uint shuffle, uint4 seeds) {
                    reverse_bits32(laine_karras(x.w, seeds.w)));
 }
 
-/* The unscrambled point `index` (tests/rng.rs). */
-inline uint4 sobol4(uint index) {
-    const uint4 x = sobol4_reversed(reverse_bits32(index));
-    return (uint4)(reverse_bits32(x.x), reverse_bits32(x.y), reverse_bits32(x.z),
-                   reverse_bits32(x.w));
-}
-
 #endif
