@@ -605,13 +605,29 @@ fn bench(args: &BenchArgs) -> Result<()> {
     Ok(())
 }
 
-fn main() -> Result<()> {
+/// Runs the command; an error is printed as its message and its causes on one line, exit
+/// status 1. A user's mistake is not a crash: no backtrace, whatever RUST_BACKTRACE says.
+fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    match &cli.command {
+    let result = match &cli.command {
         Command::Render(args) => render(args),
         Command::Devices => devices(),
         Command::Bench(args) => bench(args),
         Command::Compare(args) => compare(args),
         Command::Plot(args) => plot(args),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            // The causes, each once: many messages already quote their source.
+            let mut message = e.to_string();
+            for cause in e.chain().skip(1).map(|c| c.to_string()) {
+                if !message.contains(&cause) {
+                    message = format!("{message}: {cause}");
+                }
+            }
+            eprintln!("Error: {message}");
+            std::process::ExitCode::FAILURE
+        }
     }
 }

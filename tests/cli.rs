@@ -82,6 +82,16 @@ fn bad_outputs_are_refused_before_the_render() {
     let stderr = String::from_utf8_lossy(&compare.stderr);
     assert!(!compare.status.success());
     assert!(stderr.contains("unknown format `.jpg`"), "{stderr}");
+    // A user's mistake prints its message, not a backtrace, even with RUST_BACKTRACE set.
+    let run = Command::new(env!("CARGO_BIN_EXE_clpt"))
+        .args(["render", "missing-scene.txt"])
+        .env("RUST_BACKTRACE", "1")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{stderr}");
+    assert!(stderr.starts_with("Error: "), "{stderr}");
+    assert!(!stderr.to_lowercase().contains("backtrace"), "{stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
