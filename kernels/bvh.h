@@ -9,6 +9,8 @@
 #ifndef CLPT_BVH_H
 #define CLPT_BVH_H
 
+#include "aabb.h"
+
 #define BVH_STACK 64
 
 /* Visits the objects the ray may hit, calling object_intersect(scene, ref, o, d, hit). */

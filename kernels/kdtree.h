@@ -10,6 +10,8 @@
 #ifndef CLPT_KDTREE_H
 #define CLPT_KDTREE_H
 
+#include "aabb.h"
+
 #define KD_STACK 64
 
 typedef struct KdTodo {

@@ -10,7 +10,6 @@
 #define CLPT_OBJECTS_H
 
 /* What is compiled follows the program switches of features.h. */
-#include "aabb.h"
 #if CLPT_TRANSFORMS
 #include "transform.h"
 #endif

@@ -51,22 +51,16 @@ inline uint4 philox4x32_10(uint4 ctr, uint2 key) {
     return ctr;
 }
 
-/* The numbers of one path: (seed, pixel, sample) fixed, `dimension` advancing. */
+/* The numbers of one path: (seed, pixel, sample) fixed, `dimension` advancing. The quasi-random
+ * blocks are drawn together when the path starts (rng_for_path) and handed out in order: one
+ * copy of the Sobol code in a rolled loop, not one per call site inside the path loop. */
 typedef struct Rng {
     uint2 key;
     uint pixel;
     uint sample;
     uint dimension;
+    uint4 quasi0, quasi1, quasi2; /* blocks dimension .. SOBOL_BLOCKS - 1, next first */
 } Rng;
-
-inline Rng rng_for_path(uint seed_lo, uint seed_hi, uint pixel, uint sample) {
-    Rng rng;
-    rng.key = (uint2)(seed_lo, seed_hi);
-    rng.pixel = pixel;
-    rng.sample = sample;
-    rng.dimension = 0u;
-    return rng;
-}
 
 /* The top 24 bits of a word as a float in [0, 1): every value is exact, 1 is never reached. */
 inline float rng_to_unit(uint bits) {
@@ -77,24 +71,49 @@ inline float rng_to_unit(uint bits) {
  * then its light block (with light sampling) or the second bounce's BSDF block (without). Later
  * ones are plain Philox numbers of (pixel, sample, block): on PoCL, 3 quasi-random blocks gave
  * the error of 6 or of all (the variance lies in the pixel footprint and the first bounce) at
- * less cost, 2 left 1.7 times the error in a room with light sampling. */
+ * less cost, 2 left 1.7 times the error in a room with light sampling. Rng holds exactly
+ * this many (quasi0 .. quasi2). */
 #define SOBOL_BLOCKS 3u
 
-/* Four uniform numbers in [0, 1) from the next dimension block. A quasi-random block: Philox of
- * the counter (pixel, block, half, ~0) under the seed gives the shuffle and scrambling seeds,
- * the sample the point index. */
+/* Quasi-random block `block` of sample `sample` in pixel `pixel`: Philox of the counter
+ * (pixel, block, half, ~0) under the seed gives the shuffle and scrambling seeds, the sample
+ * the point index. */
+inline uint4 rng_quasi_block(uint2 key, uint pixel, uint sample, uint block) {
+    const uint half_index = (sample >> 2) & 1u;
+    const uint point = ((sample >> 3) << 2) | (sample & 3u);
+    const uint4 seeds = philox4x32_10((uint4)(pixel, block, half_index, 0xffffffffu), key);
+    /* A fifth seed for the fourth coordinate, from the other four (Weyl step, mixing). */
+    const uint seed_w = (seeds.x ^ seeds.w) * 0x9E3779B9u + seeds.y;
+    return scrambled_sobol4(point, seeds.x, (uint4)(seeds.y, seeds.z, seeds.w, seed_w));
+}
+
+inline Rng rng_for_path(uint seed_lo, uint seed_hi, uint pixel, uint sample) {
+    Rng rng;
+    rng.key = (uint2)(seed_lo, seed_hi);
+    rng.pixel = pixel;
+    rng.sample = sample;
+    rng.dimension = 0u;
+    rng.quasi1 = rng.quasi0 = (uint4)(0u);
+    /* Last block first, each pushed in front of the others: a rolled loop (see sobol4_reversed
+     * for why the code is kept small). */
+#pragma unroll 1
+    for (uint b = SOBOL_BLOCKS; b-- > 0u;) {
+        rng.quasi2 = rng.quasi1;
+        rng.quasi1 = rng.quasi0;
+        rng.quasi0 = rng_quasi_block(rng.key, pixel, sample, b);
+    }
+    return rng;
+}
+
+/* Four uniform numbers in [0, 1) from the next dimension block. */
 inline float4 rng_next4(Rng* rng) {
     const uint block = rng->dimension;
     rng->dimension += 1u;
     uint4 bits;
     if (block < SOBOL_BLOCKS) {
-        const uint half_index = (rng->sample >> 2) & 1u;
-        const uint point = ((rng->sample >> 3) << 2) | (rng->sample & 3u);
-        const uint4 seeds =
-            philox4x32_10((uint4)(rng->pixel, block, half_index, 0xffffffffu), rng->key);
-        /* A fifth seed for the fourth coordinate, from the other four (Weyl step, mixing). */
-        const uint seed_w = (seeds.x ^ seeds.w) * 0x9E3779B9u + seeds.y;
-        bits = scrambled_sobol4(point, seeds.x, (uint4)(seeds.y, seeds.z, seeds.w, seed_w));
+        bits = rng->quasi0;
+        rng->quasi0 = rng->quasi1;
+        rng->quasi1 = rng->quasi2;
     } else {
         bits = philox4x32_10((uint4)(rng->pixel, rng->sample, block, 0u), rng->key);
     }

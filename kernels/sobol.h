@@ -82,9 +82,13 @@ inline uint laine_karras(uint x, uint seed) {
 }
 
 /* The Sobol point whose index has the bits of `index_reversed` reversed, its coordinates
- * reversed too. A fixed 32 steps without branches, so work-items stay together. */
+ * reversed too. A fixed 32 steps without branches, so work-items stay together, and kept a
+ * loop: unrolled, its 32 x 4 constants made the path loop's code 900 instructions longer, and
+ * that code size, not the arithmetic, is what cost time on the H200 (BENCHMARKS.md, "What the
+ * quasi-random numbers cost"). */
 inline uint4 sobol4_reversed(uint index_reversed) {
     uint4 x = (uint4)(0u);
+#pragma unroll 1
     for (uint p = 0u; p < 32u; ++p) {
         x ^= SOBOL_MATRIX_REVERSED[p] & (uint4)(0u - ((index_reversed >> p) & 1u));
     }
