@@ -5,7 +5,8 @@
 #   scene,setting,spp,seconds,relmse_estimate,relmse_x_seconds,estimator
 # The `off:1` row is what `--no-nee` gave before this issue, `on:1` the earlier default.
 #   tools/estimators.sh CLPT OUT.csv SCENE:SPP[:W:H] ...
-# CLPT is the binary; the device comes from $CLPT_DEVICE. With BEFORE=OLD_CLPT set, each scene
+# CLPT is the binary; the device comes from $CLPT_DEVICE. SETTINGS="auto off:0.3 ..." runs only
+# those settings. With BEFORE=OLD_CLPT set, each scene
 # also gets a row `before-off:1`: OLD_CLPT with light sampling off and roulette below 1 (the
 # `--no-nee` that the issue measures against, rendered by the binary of that time).
 set -euo pipefail
@@ -17,7 +18,7 @@ for entry in "$@"; do
   IFS=: read -r file spp w h <<< "$entry"
   size=()
   [ -n "${w:-}" ] && size=(--width "$w" --height "$h")
-  settings=(auto on:1 off:1 on:0.3 off:0.3)
+  read -r -a settings <<< "${SETTINGS:-auto on:1 off:1 on:0.3 off:0.3}"
   [ -n "${BEFORE:-}" ] && settings+=(before-off:1)
   for setting in "${settings[@]}"; do
     bin=$clpt

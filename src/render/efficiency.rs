@@ -200,13 +200,16 @@ mod tests {
             strategy: strategy(light_sampling),
             seconds_per_sample: 1e-6,
             relative_variance: 0.5,
+            relative_variance_se: 0.01,
             missed_rare_paths: false,
+            dropped: false,
         };
         let choice = crate::render::strategy::Choice {
             measured: vec![measured(true), measured(false)],
             chosen: 1,
             seconds: 0.25,
             pixels: 100.0,
+            film_samples: 0,
         };
         crate::render::report::write_report(&path, &rows, &choice).unwrap();
         assert!(

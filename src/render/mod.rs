@@ -663,9 +663,11 @@ impl<'d> Renderer<'d> {
         Ok(seconds)
     }
 
-    /// The strategy trial ([`strategy`]): every candidate renders the same sparse rows, the
-    /// film is read back and cleared after each, and the most efficient is selected. With one
-    /// candidate there is nothing to measure.
+    /// The strategy trial ([`strategy`]): every candidate renders the same rows, the film is
+    /// read back and cleared after each, and the most efficient is selected; a long render's
+    /// trial first scouts and then measures the survivors in full ([`strategy::scout_plan`]).
+    /// When the winner rendered the last round on every row, its samples stay in the film
+    /// (`Choice::film_samples`). With one candidate there is nothing to measure.
     fn choose_strategy(&mut self) -> Result<Choice> {
         if self.candidates.len() < 2 {
             let only = self.candidates[0];
@@ -674,8 +676,54 @@ impl<'d> Renderer<'d> {
         }
         let start = Instant::now();
         self.warm_up()?;
+        let height = self.height();
+        let all: Vec<usize> = (0..self.candidates.len()).collect();
+        // A short render's trial is one round, as large as it affords; a longer one scouts.
+        let scout = strategy::scout_plan(height);
+        let first = strategy::trial_plan(all.len(), self.options.spp, height);
+        let first = if first.cost() > scout.cost() {
+            scout
+        } else {
+            first
+        };
+        let scouted = self.trial_round(&all, first, &start)?;
+        let survivors = scouted.survivors();
+        let full = self
+            .options
+            .spp
+            .and_then(|spp| strategy::full_round_plan(&scouted, &survivors, spp, height));
+        let choice = match full {
+            None => scouted,
+            Some(plan) => {
+                self.clear_film()?;
+                let round = self.trial_round(&survivors, plan, &start)?;
+                let mut choice = Choice::merge(&scouted, &survivors, round);
+                // The last film rendered is still there: the winner's when it rendered last
+                // (survivors() puts the scouts' best last) on every row. The render goes on
+                // from it.
+                if plan.row_step == 1 && survivors.last() == Some(&choice.chosen) {
+                    choice.film_samples = plan.samples;
+                }
+                choice
+            }
+        };
+        if choice.film_samples == 0 {
+            self.clear_film()?;
+        }
+        self.select(choice.strategy())?;
+        Ok(choice)
+    }
+
+    /// One round of the trial: the candidates `which` (indices into the candidate list), in
+    /// that order, each render the plan's rows and samples; the film is cleared between them
+    /// and the last one's left in it.
+    fn trial_round(
+        &mut self,
+        which: &[usize],
+        plan: strategy::TrialPlan,
+        start: &Instant,
+    ) -> Result<Choice> {
         let (width, height) = (self.width(), self.height());
-        let plan = strategy::trial_plan(self.candidates.len(), self.options.spp, height);
         let step = plan.row_step;
         let first_row = (step - 1) / 2;
         let rows = Rows {
@@ -684,7 +732,11 @@ impl<'d> Renderer<'d> {
             step,
         };
         let mut films = Vec::new();
-        for candidate in self.candidates.clone() {
+        let strategies: Vec<Strategy> = which.iter().map(|&i| self.candidates[i]).collect();
+        for (k, &candidate) in strategies.iter().enumerate() {
+            if k > 0 {
+                self.clear_film()?;
+            }
             self.select(candidate)?;
             let seconds = self.render_rows(rows, 0, plan.samples)?;
             let rgb = |buffer: &ocl::Buffer<f32>| -> Result<Vec<[f32; 3]>> {
@@ -699,17 +751,14 @@ impl<'d> Renderer<'d> {
                 samples: plan.samples,
                 seconds,
             });
-            self.clear_film()?;
         }
         let pixels = width as f64 * height as f64;
-        let choice = strategy::choose(
-            &self.candidates,
+        Ok(strategy::choose(
+            &strategies,
             &films,
             pixels,
             start.elapsed().as_secs_f64(),
-        );
-        self.select(choice.strategy())?;
-        Ok(choice)
+        ))
     }
 
     /// Renders until the sample count or time limit, calling `on_progress` after every pass.
@@ -725,7 +774,7 @@ impl<'d> Renderer<'d> {
         let total = self.options.spp;
         let start = Instant::now();
         let choice = self.choose_strategy()?;
-        let mut spp_done = 0u32;
+        let mut spp_done = choice.film_samples;
         let mut report = Vec::new();
         let mut launches = 0u32;
         let mut passes = 0u32;

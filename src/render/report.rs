@@ -83,13 +83,14 @@ pub fn write_report(path: &Path, rows: &[PassReport], choice: &Choice) -> Result
                             "    {{\"light_sampling\": {}, \"rr_threshold\": {}, \
                              \"relmse_x_seconds\": {}, \"relative_variance\": {}, \
                              \"seconds_per_path\": {}, \"missed_rare_paths\": {}, \
-                             \"chosen\": {}}}",
+                             \"dropped_after_scouting\": {}, \"chosen\": {}}}",
                             m.strategy.light_sampling,
                             m.strategy.rr_threshold,
                             json_number(m.efficiency(choice.pixels)),
                             json_number(m.relative_variance),
                             json_number(m.seconds_per_sample),
                             m.missed_rare_paths,
+                            m.dropped,
                             i == choice.chosen
                         )
                     })

@@ -9,16 +9,25 @@
 //! black emitters, where paths end anyway, it only adds variance (a threshold of 0.3 reaches
 //! the same error 2.4 times sooner there). BENCHMARKS.md has the figures.
 //!
-//! How: before the render, every candidate renders the same samples of the same set of rows
-//! ([`trial_plan`]: at least [`TRIAL_SPP`] samples on every fourth row, so the trial sees the
-//! whole picture; more rows and samples the longer the render, within [`TRIAL_SHARE`] of it). Each pixel's sample
-//! variance over the common denominator (the candidates' mean value squared, plus ε, as relMSE
-//! has) is the relative variance of one sample; times the measured seconds per sample it is
-//! relMSE × seconds, the figure `clpt plot` compares, whose lower value reaches any error
-//! sooner. The render then starts afresh (sample 0) with the winner, so its image is exactly
-//! the one that setting gives when fixed by hand. Sample variance is unbiased, so a strategy
-//! whose rare paths did not show up in a trial is only under-read by chance, not by rule; the
-//! common denominator keeps a noisy strategy's dark pixels from flattering it.
+//! How: before the render, every candidate renders the same samples of the same set of rows.
+//! Each pixel's sample variance over the common denominator (the candidates' mean value
+//! squared, plus ε, as relMSE has) is the relative variance of one sample; times the measured
+//! seconds per sample it is relMSE × seconds, the figure `clpt plot` compares, whose lower
+//! value reaches any error sooner.
+//! - A short render's trial is one round ([`trial_plan`]: [`TRIAL_SHARE`] of its samples,
+//!   on rows thinned out as far as that needs).
+//! - A longer one scouts first ([`scout_plan`]: [`TRIAL_SPP`] samples on every fourth row)
+//!   and drops the candidates that are clearly worse ([`Choice::survivors`]); only the rest
+//!   render the full round ([`full_round_plan`]), sized to [`FULL_ROUND_SHARE`] of the render's
+//!   time at the best one's speed. Light sampling can double a path's price, and a trial of
+//!   fixed samples per candidate then cost 6-12% of a render on the H200; this one 2-3%.
+//!
+//! The render then goes on with the winner from sample 0, or, when the winner rendered the
+//! full round last and on every row, from the samples that round left in the film: either way
+//! its image is exactly the one that setting gives when fixed by hand (tests/strategy.rs).
+//! Sample variance is unbiased, so a strategy whose rare paths did not show up in a trial is
+//! only under-read by chance, not by rule; the common denominator keeps a noisy strategy's
+//! dark pixels from flattering it.
 
 use super::metrics::REL_EPSILON;
 use std::fmt;
@@ -39,11 +48,26 @@ const MAX_TRIAL_SPP: u32 = 64;
 /// paths run on until their weight has fallen below 0.3 (see kernels/pathtracer.cl).
 pub const RR_THRESHOLDS: [f32; 2] = [1.0, 0.3];
 
-/// The trial takes at most about this share of a render given a sample count.
+/// A render given a sample count affords each candidate's first round this share of those
+/// samples, divided among the candidates (only short renders' trials are that small: longer
+/// ones scout first, [`scout_plan`]).
 const TRIAL_SHARE: f64 = 0.06;
 
-/// The row sampling of the shortest trials: every fourth row.
+/// The full round after scouting takes about this share of the render's time
+/// ([`full_round_plan`]).
+const FULL_ROUND_SHARE: f64 = 0.03;
+
+/// The row sampling of the shortest trials, and of the scouting round: every fourth row.
 const MIN_ROW_STEP: u32 = 4;
+
+/// After the scouting round a candidate is dropped when its relMSE × seconds exceeds the best
+/// one's by more than this share, and by more than [`DROP_SIGMAS`] standard errors of the
+/// two relative variances: the margin covers the timings' noise, which the standard errors
+/// leave out.
+const DROP_MARGIN: f64 = 0.2;
+
+/// See [`DROP_MARGIN`].
+const DROP_SIGMAS: f64 = 3.0;
 
 /// `--light-sampling`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -147,17 +171,30 @@ pub struct TrialPlan {
     pub samples: u32,
 }
 
+impl TrialPlan {
+    /// Full-image samples per pixel.
+    pub fn cost(&self) -> f64 {
+        f64::from(self.samples) / f64::from(self.row_step)
+    }
+}
+
 /// The trial's size: each candidate gets [`TRIAL_SHARE`] of a render of `spp` samples divided
-/// among the `candidates`, in full-image samples per pixel. Below [`TRIAL_SPP`] samples on every
-/// fourth row's worth, the rows thin out (never fewer than one); above it, every row takes part
-/// first, then the samples grow by whole [`TRIAL_SPP`]s up to [`MAX_TRIAL_SPP`]: a long render
-/// affords a trial precise enough to tell estimators apart by 10%. Without a sample count (a
-/// time limit or a target error) the trial is the shortest: TRIAL_SPP samples on every fourth
-/// row.
+/// among the `candidates`, in full-image samples per pixel ([`plan_for_budget`]). Without a
+/// sample count (a time limit or a target error) the trial is the shortest: TRIAL_SPP samples
+/// on every fourth row.
 pub fn trial_plan(candidates: usize, spp: Option<u32>, height: u32) -> TrialPlan {
     let budget = spp.map_or(0.0, |n| {
         TRIAL_SHARE * f64::from(n) / candidates.max(1) as f64
     });
+    plan_for_budget(budget, height)
+}
+
+/// The plan of a candidate's share of the trial, `budget` full-image samples per pixel. Below
+/// [`TRIAL_SPP`] samples on every fourth row's worth, the rows thin out (never fewer than one);
+/// above it, every row takes part first, then the samples grow by whole [`TRIAL_SPP`]s up to
+/// [`MAX_TRIAL_SPP`]: a long render affords a trial precise enough to tell estimators apart by
+/// 10%. A budget of 0 gives the shortest trial.
+pub fn plan_for_budget(budget: f64, height: u32) -> TrialPlan {
     let least = f64::from(TRIAL_SPP) / f64::from(MIN_ROW_STEP);
     let (row_step, samples) = if budget <= least {
         let step = if budget > 0.0 {
@@ -178,6 +215,33 @@ pub fn trial_plan(candidates: usize, spp: Option<u32>, height: u32) -> TrialPlan
     }
 }
 
+/// The plan of the full round after scouting, or `None` when it would be no larger than the
+/// scouting round: the `survivors` share [`FULL_ROUND_SHARE`] of the time a render of `spp`
+/// samples would take with the fastest-converging of them (by the scouts' timings), so the
+/// round costs the same few percent however slow the losers are.
+pub fn full_round_plan(
+    scout: &Choice,
+    survivors: &[usize],
+    spp: u32,
+    height: u32,
+) -> Option<TrialPlan> {
+    let chosen = &scout.measured[scout.chosen];
+    let total: f64 = survivors
+        .iter()
+        .map(|&i| scout.measured[i].seconds_per_sample)
+        .sum();
+    let budget = FULL_ROUND_SHARE * f64::from(spp) * chosen.seconds_per_sample / total;
+    let plan = plan_for_budget(budget, height);
+    let scouted = scout_plan(height);
+    (survivors.len() > 1 && budget.is_finite() && plan.cost() > scouted.cost()).then_some(plan)
+}
+
+/// The scouting round of a long render's trial: [`TRIAL_SPP`] samples on every fourth row (the
+/// shortest trial).
+pub fn scout_plan(height: u32) -> TrialPlan {
+    plan_for_budget(0.0, height)
+}
+
 /// What the trial measured of one candidate.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Measured {
@@ -186,9 +250,13 @@ pub struct Measured {
     pub seconds_per_sample: f64,
     /// Relative variance of one sample, averaged over the trial's pixels and channels.
     pub relative_variance: f64,
+    /// The standard error of `relative_variance` (from the spread of its pixels' terms).
+    pub relative_variance_se: f64,
     /// Its image mean fell significantly below the most precise candidate's: its trial missed
     /// rare bright paths, so its variance reads low and it is not chosen.
     pub missed_rare_paths: bool,
+    /// Dropped after the scouting round: these figures are that round's.
+    pub dropped: bool,
 }
 
 impl Measured {
@@ -209,6 +277,9 @@ pub struct Choice {
     pub seconds: f64,
     /// The image's pixel count, which relMSE × seconds scales with.
     pub pixels: f64,
+    /// Samples per pixel of the chosen strategy that the trial left in the film (on every
+    /// row, from sample 0): the render goes on from there. 0 when it starts afresh.
+    pub film_samples: u32,
 }
 
 impl Choice {
@@ -219,11 +290,56 @@ impl Choice {
                 strategy,
                 seconds_per_sample: f64::NAN,
                 relative_variance: f64::NAN,
+                relative_variance_se: f64::NAN,
                 missed_rare_paths: false,
+                dropped: false,
             }],
             chosen: 0,
             seconds: 0.0,
             pixels: f64::NAN,
+            film_samples: 0,
+        }
+    }
+
+    /// The candidates worth a full trial after a scouting round, by index into `measured`:
+    /// the chosen one, and every trusted one whose relMSE × seconds is not clearly worse (by
+    /// [`DROP_MARGIN`] and [`DROP_SIGMAS`] standard errors). The chosen one comes last, so
+    /// that, when it wins again, its film is the last rendered and can be kept.
+    pub fn survivors(&self) -> Vec<usize> {
+        let best = &self.measured[self.chosen];
+        let relative_se = |m: &Measured| m.relative_variance_se / m.relative_variance;
+        let mut keep: Vec<usize> = (0..self.measured.len())
+            .filter(|&i| {
+                let m = &self.measured[i];
+                let ratio = m.efficiency(self.pixels) / best.efficiency(self.pixels);
+                let sigma = relative_se(m).hypot(relative_se(best));
+                // A ratio that cannot be computed (NaN) is not clearly worse.
+                let clearly_worse = ratio > 1.0 + DROP_MARGIN.max(DROP_SIGMAS * sigma);
+                i != self.chosen && !m.missed_rare_paths && !clearly_worse
+            })
+            .collect();
+        keep.push(self.chosen);
+        keep
+    }
+
+    /// The choice of a two-round trial: `full`'s figures for the candidates it measured
+    /// (`survivors`, indices into `scout.measured`), the scouting round's for the dropped.
+    pub fn merge(scout: &Choice, survivors: &[usize], full: Choice) -> Choice {
+        let mut measured: Vec<Measured> = scout
+            .measured
+            .iter()
+            .map(|m| Measured {
+                dropped: true,
+                ..*m
+            })
+            .collect();
+        for (k, &i) in survivors.iter().enumerate() {
+            measured[i] = full.measured[k];
+        }
+        Choice {
+            measured,
+            chosen: survivors[full.chosen],
+            ..full
         }
     }
 
@@ -244,13 +360,18 @@ impl Choice {
             .enumerate()
             .map(|(i, m)| {
                 format!(
-                    "{}: relMSE x s {:.3e} (relative variance {:.3e} per sample, {:.4} us per path){}{}",
+                    "{}: relMSE x s {:.3e} (relative variance {:.3e} per sample, {:.4} us per path){}{}{}",
                     m.strategy,
                     m.efficiency(self.pixels),
                     m.relative_variance,
                     m.seconds_per_sample * 1e6,
                     if m.missed_rare_paths {
                         ", image mean too low: rare paths missed"
+                    } else {
+                        ""
+                    },
+                    if m.dropped {
+                        ", dropped after the scouting round"
                     } else {
                         ""
                     },
@@ -376,17 +497,25 @@ pub fn choose(
         .enumerate()
         .map(|(i, (&strategy, film))| {
             let n = f64::from(film.samples);
-            let mut rel = 0.0;
+            // Each pixel's term (its channels' mean), their mean and spread.
+            let (mut rel, mut rel_sq) = (0.0, 0.0);
             for ((s, o), d) in film.sum.iter().zip(&film.sum_odd).zip(&denominator) {
-                for c in 0..3 {
-                    rel += stratified_variance(s[c], o[c], n) / d[c];
-                }
+                let term = (0..3)
+                    .map(|c| stratified_variance(s[c], o[c], n) / d[c])
+                    .sum::<f64>()
+                    / 3.0;
+                rel += term;
+                rel_sq += term * term;
             }
+            let np = n_pixels as f64;
+            let mean = rel / np;
             Measured {
                 strategy,
-                seconds_per_sample: film.seconds / (n * n_pixels as f64),
-                relative_variance: rel / (3 * n_pixels) as f64,
+                seconds_per_sample: film.seconds / (n * np),
+                relative_variance: mean,
+                relative_variance_se: ((rel_sq / np - mean * mean).max(0.0) / np).sqrt(),
                 missed_rare_paths: missed[i],
+                dropped: false,
             }
         })
         .collect();
@@ -408,6 +537,7 @@ pub fn choose(
         chosen,
         seconds: trial_seconds,
         pixels,
+        film_samples: 0,
     }
 }
 
@@ -415,7 +545,15 @@ impl fmt::Display for Choice {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}", self.strategy())?;
         if self.was_measured() {
-            write!(f, " (chosen in a {:.2} s trial)", self.seconds)?;
+            write!(f, " (chosen in a {:.2} s trial", self.seconds)?;
+            if self.film_samples > 0 {
+                write!(
+                    f,
+                    ", whose {} samples of it the render keeps",
+                    self.film_samples
+                )?;
+            }
+            write!(f, ")")?;
         }
         Ok(())
     }
@@ -523,5 +661,59 @@ mod tests {
         assert!(choice.measured[1].missed_rare_paths, "{choice:?}");
         assert!(!choice.measured[0].missed_rare_paths);
         assert_eq!(choice.chosen, 0);
+    }
+
+    fn measured(light_sampling: bool, seconds: f64, variance: f64, se: f64) -> Measured {
+        Measured {
+            strategy: strategy(light_sampling, 1.0),
+            seconds_per_sample: seconds,
+            relative_variance: variance,
+            relative_variance_se: se,
+            missed_rare_paths: false,
+            dropped: false,
+        }
+    }
+
+    #[test]
+    fn scouting_drops_the_clearly_worse_and_keeps_the_close() {
+        let scout = Choice {
+            measured: vec![
+                measured(true, 2.0, 1.0, 0.01),  // 2.0: twice the best
+                measured(true, 1.0, 1.15, 0.01), // 1.15: within the 20% margin
+                measured(false, 1.0, 1.0, 0.01), // 1.0: the best
+                measured(false, 1.0, 1.5, 0.3),  // 1.5, but too noisy to tell
+            ],
+            chosen: 2,
+            seconds: 1.0,
+            pixels: 100.0,
+            film_samples: 0,
+        };
+        // The best comes last, so that its film is the one left when it wins again.
+        assert_eq!(scout.survivors(), [1, 3, 2]);
+        // The full round: 3% of a 1000-sample render at the best's speed, shared by three
+        // candidates of equal speed: 10 samples' worth each, 8 on every row.
+        let plan = full_round_plan(&scout, &[1, 3, 2], 1000, 480).unwrap();
+        assert_eq!((plan.row_step, plan.samples), (1, 8));
+        // A short render affords no more than the scouting round: no full round.
+        assert_eq!(full_round_plan(&scout, &[1, 3, 2], 100, 480), None);
+        assert_eq!(full_round_plan(&scout, &[2], 1000, 480), None);
+        // Merged: the full round's figures for the survivors, the scouts' for the dropped.
+        let full = Choice {
+            measured: vec![
+                measured(true, 1.0, 0.9, 0.01),
+                measured(false, 1.0, 1.6, 0.01),
+                measured(false, 1.0, 1.0, 0.01),
+            ],
+            chosen: 0,
+            seconds: 2.0,
+            pixels: 100.0,
+            film_samples: 0,
+        };
+        let merged = Choice::merge(&scout, &[1, 3, 2], full);
+        assert_eq!(merged.chosen, 1);
+        assert!(merged.measured[0].dropped && !merged.measured[1].dropped);
+        assert_eq!(merged.measured[1].relative_variance, 0.9);
+        assert_eq!(merged.measured[3].relative_variance, 1.6);
+        assert_eq!(merged.seconds, 2.0);
     }
 }
