@@ -6,16 +6,18 @@ use clpt::device::program::{CacheUse, KernelSources};
 use clpt::device::{self};
 use clpt::output;
 use clpt::render::bench::{BenchResult, bench_scene};
-use clpt::render::film_file::FilmMeta;
 use clpt::render::metrics::{self, LinearImage};
+use clpt::render::resume::{self, FilmRecord};
 use clpt::render::{
-    ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter, efficiency, film, report,
+    Flow, ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter, efficiency, film, report,
     strategy::{LightSampling, Roulette},
 };
 use clpt::scene::{Scene, builtin};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
 
 #[derive(Parser)]
 #[command(
@@ -37,7 +39,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene file (the built-in smallpt room when none is given) to an image.
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// List every OpenCL platform and device, with the index `--device` takes.
     Devices,
     /// Measure samples per second and paths per second on scenes.
@@ -208,6 +210,20 @@ struct RenderArgs {
     /// accumulated, bit for bit, with what made it (scene, options, seed, samples, device).
     #[arg(long, value_name = "FILE.exr")]
     film: Option<PathBuf>,
+    /// Keep a checkpoint (a film file, OpenEXR) of the render, rewritten every
+    /// --checkpoint-every seconds and at the end. Ctrl-C or SIGTERM finishes the pass in flight
+    /// and writes the image and the checkpoint (by default SCENE.checkpoint.exr beside the
+    /// image) before exiting; a second Ctrl-C exits at once.
+    #[arg(long, value_name = "FILE.exr")]
+    checkpoint: Option<PathBuf>,
+    /// Seconds between checkpoints.
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
+    checkpoint_every: f64,
+    /// Continue the render that wrote this checkpoint (or film file) from its next sample: the
+    /// same scene file, seed and options, up to --spp samples in all; the image is bit for bit
+    /// that of an uninterrupted render.
+    #[arg(long, value_name = "FILE.exr")]
+    resume: Option<PathBuf>,
     #[command(flatten)]
     sampling: SamplingArgs,
     #[command(flatten)]
@@ -305,7 +321,9 @@ fn default_output(scene: Option<&Path>) -> PathBuf {
     PathBuf::from(format!("{stem}.png"))
 }
 
-fn render(args: &RenderArgs) -> Result<()> {
+/// Renders; the exit status: 0, or 130 (SIGINT) or 143 (SIGTERM) when a signal ended the
+/// render after writing its image and checkpoint.
+fn render(args: &RenderArgs) -> Result<u8> {
     let scene = load_scene(args.scene.as_deref(), &args.sampling)?;
     let mut options = options(&args.sampling, &args.program, args.spp, args.time)?;
     if let Some(e) = args.target_error {
@@ -339,11 +357,55 @@ fn render(args: &RenderArgs) -> Result<()> {
     if let Some(path) = &args.film {
         output::check_writable(path, &["exr"])?;
     }
+    if !(args.checkpoint_every.is_finite() && args.checkpoint_every > 0.0) {
+        bail!(
+            "--checkpoint-every must be a positive number of seconds, got {}",
+            args.checkpoint_every
+        );
+    }
+    // Where a checkpoint goes: --checkpoint, or beside the image when a signal ends the render.
+    let checkpoint = args.checkpoint.clone().unwrap_or_else(|| {
+        let stem = output.file_stem().unwrap_or_default().to_string_lossy();
+        output.with_file_name(format!("{stem}.checkpoint.exr"))
+    });
+    output::check_writable(&checkpoint, &["exr"])?;
+    let resumed = match &args.resume {
+        Some(path) => {
+            let c = resume::read_for_resume(
+                path,
+                args.scene.as_deref(),
+                &options,
+                (scene.camera.width, scene.camera.height),
+            )?;
+            c.fix_strategy(&mut options);
+            Some(c)
+        }
+        None => None,
+    };
+    let stop = stop_on_signals()?;
     let (device, sources) = args.device.open()?;
     if args.verbose {
         eprintln!("device: {}", device.description);
     }
     let mut renderer = Renderer::new(&device, &scene, &sources, options.clone())?;
+    if let Some(c) = &resumed {
+        renderer.resume(&c.state, c.samples(), c.strategy)?;
+        if args.verbose {
+            eprintln!(
+                "resuming {}: {} samples per pixel, {}, {:.2} s so far",
+                args.resume.as_deref().unwrap_or(Path::new("")).display(),
+                c.samples(),
+                c.strategy,
+                c.meta.seconds
+            );
+        }
+    }
+    let record = FilmRecord {
+        scene_file: args.scene.as_deref(),
+        options: &options,
+        device: &device.description.name,
+        seconds_before: resumed.as_ref().map_or(0.0, |c| c.meta.seconds),
+    };
     if let Some(path) = &args.dump_kernel {
         // The first program (with light sampling when that is a candidate); a second one
         // beside it, named FILE.no-nee, when the trial may choose either.
@@ -420,7 +482,9 @@ fn render(args: &RenderArgs) -> Result<()> {
             )?),
         }
     };
-    let (film, stats) = renderer.render(&mut |p: &Progress| {
+    let every = Duration::from_secs_f64(args.checkpoint_every);
+    let mut last_checkpoint = Instant::now();
+    let (film, stats) = renderer.render_with(&mut |p: &Progress, r: &Renderer| {
         bar.set_position(p.spp_done as u64);
         let spp_per_second = p.spp_done as f64 / p.elapsed.as_secs_f64().max(1e-9);
         let error = p.estimate.map_or(String::new(), |e| {
@@ -433,20 +497,26 @@ fn render(args: &RenderArgs) -> Result<()> {
             if s.light_sampling { "on" } else { "off" },
             s.rr_threshold
         ));
+        let signalled = stop.interrupted();
+        if signalled || (args.checkpoint.is_some() && last_checkpoint.elapsed() >= every) {
+            let seconds = p.elapsed.as_secs_f64();
+            record.write(&checkpoint, r, p.strategy, p.spp_done, seconds)?;
+            last_checkpoint = Instant::now();
+        }
+        Ok(if signalled {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        })
     })?;
     bar.finish_and_clear();
     film.write(&output)?;
+    let (strategy, seconds) = (stats.choice.strategy(), stats.elapsed.as_secs_f64());
     if let Some(path) = &args.film {
-        let meta = FilmMeta::of_render(
-            args.scene.as_deref(),
-            &options,
-            stats.choice.strategy(),
-            (film.width, film.height),
-            (0, film.spp),
-            &device.description.name,
-            stats.elapsed.as_secs_f64(),
-        )?;
-        renderer.film_state()?.write(path, &meta)?;
+        record.write(path, &renderer, strategy, film.spp, seconds)?;
+    }
+    if args.checkpoint.is_some() && !stats.stopped {
+        record.write(&checkpoint, &renderer, strategy, film.spp, seconds)?;
     }
     if let Some(path) = &args.report {
         report::write_report(path, &stats.report, &stats.choice)?;
@@ -500,7 +570,55 @@ fn render(args: &RenderArgs) -> Result<()> {
     if args.verbose {
         eprintln!("{} passes, {} launches", stats.passes, stats.launches);
     }
-    Ok(())
+    if stats.stopped {
+        let (name, status) = stop.signal();
+        let total = options.spp.map_or(String::new(), |n| format!(" of {n}"));
+        eprintln!(
+            "{name}: stopped after {}{total} samples per pixel; the image and the checkpoint {} \
+             hold them. Resume with the same command and `--resume {}`.",
+            film.spp,
+            checkpoint.display(),
+            checkpoint.display()
+        );
+        return Ok(status);
+    }
+    Ok(0)
+}
+
+/// SIGINT and SIGTERM: the first sets the flag the render loop reads after each pass (it then
+/// writes the image and the checkpoint and exits 130 or 143); a second exits at once with that
+/// status.
+struct StopSignals {
+    stop: Arc<AtomicBool>,
+    sigterm: Arc<AtomicBool>,
+}
+
+impl StopSignals {
+    fn interrupted(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+
+    /// The signal's name and the exit status it calls for.
+    fn signal(&self) -> (&'static str, u8) {
+        if self.sigterm.load(Ordering::Relaxed) {
+            ("SIGTERM", 143)
+        } else {
+            ("interrupted", 130)
+        }
+    }
+}
+
+fn stop_on_signals() -> Result<StopSignals> {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let stop = Arc::new(AtomicBool::new(false));
+    let sigterm = Arc::new(AtomicBool::new(false));
+    for (signal, status) in [(SIGINT, 130), (SIGTERM, 143)] {
+        // In this order: a second signal finds `stop` set and exits before setting it again.
+        signal_hook::flag::register_conditional_shutdown(signal, status, Arc::clone(&stop))?;
+        signal_hook::flag::register(signal, Arc::clone(&stop))?;
+    }
+    signal_hook::flag::register(SIGTERM, Arc::clone(&sigterm))?;
+    Ok(StopSignals { stop, sigterm })
 }
 
 fn compare(args: &CompareArgs) -> Result<()> {
@@ -611,13 +729,13 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Render(args) => render(args),
-        Command::Devices => devices(),
-        Command::Bench(args) => bench(args),
-        Command::Compare(args) => compare(args),
-        Command::Plot(args) => plot(args),
+        Command::Devices => devices().map(|()| 0),
+        Command::Bench(args) => bench(args).map(|()| 0),
+        Command::Compare(args) => compare(args).map(|()| 0),
+        Command::Plot(args) => plot(args).map(|()| 0),
     };
     match result {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+        Ok(status) => std::process::ExitCode::from(status),
         Err(e) => {
             // The causes, each once: many messages already quote their source.
             let mut message = e.to_string();

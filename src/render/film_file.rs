@@ -84,6 +84,55 @@ impl FilmMeta {
     }
 }
 
+impl FilmMeta {
+    /// The strategy its options name (`light sampling B; rr_threshold T`, as [`Self::of_render`]
+    /// writes them).
+    pub fn strategy(&self) -> Option<Strategy> {
+        let field = |key: &str| {
+            self.options
+                .split("; ")
+                .find_map(|part| part.strip_prefix(key))
+                .map(str::trim)
+        };
+        Some(Strategy {
+            light_sampling: field("light sampling ")?.parse().ok()?,
+            rr_threshold: field("rr_threshold ")?.parse().ok()?,
+        })
+    }
+
+    /// Whether a render described by `expected` (this clpt, this scene file, these options,
+    /// with this film's strategy) may continue this film: the reason when not.
+    pub fn check_continues(&self, expected: &FilmMeta) -> std::result::Result<(), String> {
+        let differs = |what: &str, film: &dyn std::fmt::Display, now: &dyn std::fmt::Display| {
+            Err(format!(
+                "it was rendered with {what} {film}, this render has {now}"
+            ))
+        };
+        if self.version != expected.version {
+            return differs("clpt", &self.version, &expected.version);
+        }
+        if self.scene_fingerprint != expected.scene_fingerprint {
+            return Err(format!(
+                "it is a film of another scene ({}, or that file since changed)",
+                self.scene
+            ));
+        }
+        if self.seed != expected.seed {
+            return differs("seed", &self.seed, &expected.seed);
+        }
+        if self.options != expected.options {
+            return differs("options", &self.options, &expected.options);
+        }
+        if self.samples.0 != 0 {
+            return Err(format!(
+                "it holds samples {}..{}, not a render's first samples",
+                self.samples.0, self.samples.1
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// The device's film, pixel for pixel (row 0 at the bottom, as the device keeps it): float4
 /// sums (.w unused) and the non-finite counters.
 #[derive(Clone, Debug, PartialEq)]

@@ -15,6 +15,7 @@ pub mod film;
 pub mod film_file;
 pub mod metrics;
 pub mod report;
+pub mod resume;
 pub mod strategy;
 
 use crate::device::Device;
@@ -224,6 +225,8 @@ pub struct RenderStats {
     pub choice: Choice,
     /// Samples that were not finite, left out of the film (each counts as 0).
     pub nonfinite: NonFinite,
+    /// The pass callback ended the render before its sample count or time limit.
+    pub stopped: bool,
 }
 
 /// Path samples that came out infinite or NaN (kernels/pathtracer.cl, `render_pass`): never
@@ -285,7 +288,17 @@ pub struct Renderer<'d> {
     sum_odd_lo: ocl::Buffer<f32>,
     bad: ocl::Buffer<u32>,
     bad_first: ocl::Buffer<u32>,
+    /// Samples per pixel the film already holds when the next render starts ([`Self::resume`]).
+    start_samples: u32,
     options: RenderOptions,
+}
+
+/// What the render loop does after a pass ([`Renderer::render_with`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flow {
+    Continue,
+    /// End the render now: the film holds every finished pass.
+    Stop,
 }
 
 /// The error figures of the film after a pass (kernels/pathtracer.cl, `error_rows`).
@@ -514,6 +527,7 @@ impl<'d> Renderer<'d> {
             sum_odd_lo,
             bad,
             bad_first,
+            start_samples: 0,
             options,
         };
         renderer.select(strategy)?;
@@ -768,13 +782,28 @@ impl<'d> Renderer<'d> {
         &mut self,
         on_progress: &mut dyn FnMut(&Progress),
     ) -> Result<(Film, RenderStats)> {
+        self.render_with(&mut |p, _| {
+            on_progress(p);
+            Ok(Flow::Continue)
+        })
+    }
+
+    /// [`Self::render`], with a callback after every pass that sees the renderer (to write a
+    /// checkpoint of its film) and may end the render ([`Flow::Stop`]; the film then holds
+    /// every finished pass, `RenderStats::stopped` says so). An error from it ends the render
+    /// with that error.
+    pub fn render_with(
+        &mut self,
+        on_pass: &mut dyn FnMut(&Progress, &Renderer) -> Result<Flow>,
+    ) -> Result<(Film, RenderStats)> {
         let (width, height) = (self.width(), self.height());
         let pixels = width as f64 * height as f64;
         let target = self.options.launch_target.as_secs_f64().max(1e-3);
         let total = self.options.spp;
         let start = Instant::now();
         let choice = self.choose_strategy()?;
-        let mut spp_done = choice.film_samples;
+        let mut spp_done = self.start_samples + choice.film_samples;
+        let mut stopped = false;
         let mut report = Vec::new();
         let mut launches = 0u32;
         let mut passes = 0u32;
@@ -782,7 +811,7 @@ impl<'d> Renderer<'d> {
         let mut rows_per_launch = height.min(GROUP as u32 * 2);
         let mut spp_per_launch = 1u32;
         loop {
-            let remaining = total.map_or(u32::MAX, |t| t - spp_done);
+            let remaining = total.map_or(u32::MAX, |t| t.saturating_sub(spp_done));
             if remaining == 0 {
                 break;
             }
@@ -817,21 +846,26 @@ impl<'d> Renderer<'d> {
                     pass: passes,
                     seconds,
                     spp: spp_done,
-                    spp_per_second: spp_done as f64 / seconds.max(1e-9),
+                    spp_per_second: (spp_done - self.start_samples) as f64 / seconds.max(1e-9),
                     estimate: e,
                     measured,
                 });
                 estimate = Some(e);
             }
             let elapsed = start.elapsed();
-            on_progress(&Progress {
+            let progress = Progress {
                 spp_done,
                 spp_total: total,
                 elapsed,
-                paths_per_second: pixels * spp_done as f64 / elapsed.as_secs_f64().max(1e-9),
+                paths_per_second: pixels * (spp_done - self.start_samples) as f64
+                    / elapsed.as_secs_f64().max(1e-9),
                 estimate,
                 strategy: self.strategy,
-            });
+            };
+            if on_pass(&progress, self)? == Flow::Stop {
+                stopped = true;
+                break;
+            }
             if let (Some(target), Some(e)) = (self.options.target_error, estimate)
                 && e.relmse <= target
                 && settled(&report)
@@ -857,10 +891,12 @@ impl<'d> Renderer<'d> {
                 elapsed,
                 launches,
                 passes,
-                paths_per_second: pixels * spp_done as f64 / elapsed.as_secs_f64().max(1e-9),
+                paths_per_second: pixels * (spp_done - self.start_samples) as f64
+                    / elapsed.as_secs_f64().max(1e-9),
                 report,
                 choice,
                 nonfinite,
+                stopped,
             },
         ))
     }
@@ -897,6 +933,52 @@ impl<'d> Renderer<'d> {
             .chunks_exact(4)
             .map(|c| [c[0], c[1], c[2], c[3]])
             .collect())
+    }
+
+    /// Continues a render from a film that holds samples 0 .. `samples` of `strategy` (a
+    /// checkpoint, read by [`film_file::FilmState::read`]): the film goes onto the device bit
+    /// for bit, and the next render runs `strategy` (no trial) from sample `samples`, so its
+    /// image is the one an uninterrupted render gives.
+    pub fn resume(
+        &mut self,
+        state: &film_file::FilmState,
+        samples: u32,
+        strategy: Strategy,
+    ) -> Result<()> {
+        if (state.width, state.height) != (self.width(), self.height()) {
+            return Err(Error::Invalid(format!(
+                "the film is {}x{}, the render {}x{}",
+                state.width,
+                state.height,
+                self.width(),
+                self.height()
+            )));
+        }
+        if !self
+            .estimators
+            .iter()
+            .any(|e| e.light_sampling == strategy.light_sampling)
+        {
+            return Err(Error::Invalid(format!(
+                "the film was rendered with {strategy}, which these options leave out"
+            )));
+        }
+        let fail = |e: ocl::Error| Error::opencl("writing the film to the device", e);
+        for (buffer, values) in [
+            (&self.sum, &state.sum),
+            (&self.sum_lo, &state.sum_lo),
+            (&self.sum_sq, &state.sum_sq),
+            (&self.sum_odd, &state.sum_odd),
+            (&self.sum_odd_lo, &state.sum_odd_lo),
+        ] {
+            buffer.write(values.as_flattened()).enq().map_err(fail)?;
+        }
+        self.bad.write(&state.bad).enq().map_err(fail)?;
+        self.bad_first.write(&state.bad_first).enq().map_err(fail)?;
+        self.candidates = vec![strategy];
+        self.select(strategy)?;
+        self.start_samples = samples;
+        Ok(())
     }
 
     /// The whole film as the device holds it (to write a film file).

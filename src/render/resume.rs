@@ -1,0 +1,123 @@
+//! Checkpoints and resume (issue 13): a render's film written as a film file
+//! ([`film_file`](super::film_file)) while it runs, and a later render that continues it.
+//!
+//! Why it is exact: every random number is a function of (seed, pixel, sample, dimension), and
+//! the kernel adds samples one at a time onto the film's sums, so a render that loads the film
+//! of samples 0 .. n bit for bit and goes on from sample n with the same strategy traces exactly
+//! the paths, and adds exactly the numbers, that an uninterrupted render would. What may not
+//! differ is checked before any work ([`read_for_resume`]): the clpt version (the kernels), the
+//! scene file's bytes, the seed, every option that changes the image, and the strategy (a
+//! resumed render runs the checkpoint's and skips the trial).
+
+use super::film_file::{FilmMeta, FilmState};
+use super::strategy::{LightSampling, Roulette, Strategy};
+use super::{RenderOptions, Renderer};
+use crate::error::{Error, Result};
+use std::path::Path;
+
+/// A film to continue, read and checked.
+pub struct Checkpoint {
+    pub state: FilmState,
+    pub meta: FilmMeta,
+    /// The strategy that rendered it, which the render continues with.
+    pub strategy: Strategy,
+}
+
+impl Checkpoint {
+    /// Samples per pixel it holds (indices 0 .. this).
+    pub fn samples(&self) -> u32 {
+        self.meta.samples.1
+    }
+
+    /// `options` with its strategy fixed to the checkpoint's.
+    pub fn fix_strategy(&self, options: &mut RenderOptions) {
+        options.light_sampling = if self.strategy.light_sampling {
+            LightSampling::On
+        } else {
+            LightSampling::Off
+        };
+        options.roulette = Roulette::Threshold(self.strategy.rr_threshold);
+    }
+}
+
+/// Reads the film file at `path` and checks that a render of `scene_file` (None: the built-in
+/// scene) with `options` at `size` may continue it; the error names the file and the reason.
+pub fn read_for_resume(
+    path: &Path,
+    scene_file: Option<&Path>,
+    options: &RenderOptions,
+    size: (u32, u32),
+) -> Result<Checkpoint> {
+    let refuse =
+        |reason: String| Error::Invalid(format!("cannot resume from {}: {reason}", path.display()));
+    let (state, meta) = FilmState::read(path)?;
+    let strategy = meta
+        .strategy()
+        .ok_or_else(|| refuse(format!("its options `{}` name no strategy", meta.options)))?;
+    match options.light_sampling {
+        LightSampling::On | LightSampling::Off
+            if (options.light_sampling == LightSampling::On) != strategy.light_sampling =>
+        {
+            return Err(refuse(format!(
+                "it was rendered with {strategy}, and --light-sampling asks otherwise"
+            )));
+        }
+        _ => {}
+    }
+    if let Roulette::Threshold(t) = options.roulette
+        && t != strategy.rr_threshold
+    {
+        return Err(refuse(format!(
+            "it was rendered with {strategy}, and --rr-threshold asks {t}"
+        )));
+    }
+    let expected = FilmMeta::of_render(scene_file, options, strategy, size, meta.samples, "", 0.0)?;
+    meta.check_continues(&expected).map_err(refuse)?;
+    if let Some(total) = options.spp
+        && total < meta.samples.1
+    {
+        return Err(refuse(format!(
+            "it holds {} samples per pixel, more than the {total} asked for",
+            meta.samples.1
+        )));
+    }
+    Ok(Checkpoint {
+        state,
+        meta,
+        strategy,
+    })
+}
+
+/// What every film file of one render records besides its film: the scene file, the options,
+/// the device, and the seconds spent before this run (a resumed render's earlier runs).
+pub struct FilmRecord<'a> {
+    pub scene_file: Option<&'a Path>,
+    pub options: &'a RenderOptions,
+    pub device: &'a str,
+    pub seconds_before: f64,
+}
+
+impl FilmRecord<'_> {
+    /// Writes `renderer`'s film, samples 0 .. `samples` of `strategy` after `seconds` of this
+    /// run, as a film file at `path` (atomically: an earlier file stays whole until the new one
+    /// is complete).
+    pub fn write(
+        &self,
+        path: &Path,
+        renderer: &Renderer,
+        strategy: Strategy,
+        samples: u32,
+        seconds: f64,
+    ) -> Result<()> {
+        let meta = FilmMeta::of_render(
+            self.scene_file,
+            self.options,
+            strategy,
+            (renderer.width(), renderer.height()),
+            (0, samples),
+            self.device,
+            self.seconds_before + seconds,
+        )?;
+        renderer.film_state()?.write(path, &meta)
+    }
+}
