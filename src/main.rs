@@ -6,6 +6,8 @@ use clpt::device::program::{CacheUse, KernelSources};
 use clpt::device::{self};
 use clpt::output;
 use clpt::render::bench::{BenchResult, bench_scene};
+use clpt::render::film_file::FilmState;
+use clpt::render::merge;
 use clpt::render::metrics::{self, LinearImage};
 use clpt::render::resume::{self, FilmRecord};
 use clpt::render::{
@@ -49,6 +51,27 @@ enum Command {
     /// Compare renders by their `--report` CSVs: relMSE x seconds (flat for an unbiased
     /// renderer), the time each needs to reach given errors, and a plot of it.
     Plot(PlotArgs),
+    /// Join film files of shards of one render (`render --shard I/N --film F`) into its image
+    /// and film.
+    Merge(MergeArgs),
+}
+
+#[derive(Args)]
+#[command(
+    after_help = "Example:\n  for i in 1 2 3 4; do clpt render scene.txt --spp 4096 --shard $i/4 \\\n      --light-sampling off --rr-threshold 0.3 --film part$i.exr -o part$i.png; done\n  \
+                  clpt merge part*.exr -o scene.png --film scene.exr"
+)]
+struct MergeArgs {
+    /// Film files of one scene, seed and option set whose sample ranges join without overlap
+    /// or gap.
+    #[arg(required = true)]
+    films: Vec<PathBuf>,
+    /// The merged image (.png, .ppm, .pfm, .exr).
+    #[arg(short, long, value_name = "FILE")]
+    output: PathBuf,
+    /// The merged film file.
+    #[arg(long, value_name = "FILE.exr")]
+    film: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -224,6 +247,15 @@ struct RenderArgs {
     /// that of an uninterrupted render.
     #[arg(long, value_name = "FILE.exr")]
     resume: Option<PathBuf>,
+    /// Render only samples START..END of each pixel (START a multiple of 8), one shard of a
+    /// longer render; write it with --film and join the shards with `clpt merge`. Needs a
+    /// fixed estimator (--light-sampling on|off, --rr-threshold T).
+    #[arg(long, value_name = "START..END", conflicts_with_all = ["spp", "shard"])]
+    samples: Option<String>,
+    /// Render shard I of N (I from 1) of the --spp samples, split in whole groups of eight:
+    /// as --samples with the range computed.
+    #[arg(long, value_name = "I/N")]
+    shard: Option<String>,
     #[command(flatten)]
     sampling: SamplingArgs,
     #[command(flatten)]
@@ -326,6 +358,29 @@ fn default_output(scene: Option<&Path>) -> PathBuf {
 fn render(args: &RenderArgs) -> Result<u8> {
     let scene = load_scene(args.scene.as_deref(), &args.sampling)?;
     let mut options = options(&args.sampling, &args.program, args.spp, args.time)?;
+    let range = match (&args.samples, &args.shard) {
+        (Some(text), _) => Some(merge::parse_samples(text).map_err(anyhow::Error::msg)?),
+        (None, Some(text)) => {
+            let Some(total) = args.spp else {
+                bail!("--shard needs --spp: the samples of the whole render that it splits");
+            };
+            Some(merge::shard_range(text, total).map_err(anyhow::Error::msg)?)
+        }
+        (None, None) => None,
+    };
+    if let Some((start, end)) = range {
+        if options.light_sampling == LightSampling::Auto
+            || matches!(options.roulette, Roulette::Auto)
+        {
+            bail!(
+                "a shard needs a fixed estimator (--light-sampling on|off and --rr-threshold T): \
+                 each shard's trial could choose differently, and films of different estimators \
+                 do not merge. `clpt render SCENE --spp 64 -v` shows what the trial picks"
+            );
+        }
+        options.first_sample = start;
+        options.spp = Some(end - start);
+    }
     if let Some(e) = args.target_error {
         if !(e.is_finite() && e > 0.0) {
             bail!("--target-error must be a positive number, got {e}");
@@ -621,6 +676,37 @@ fn stop_on_signals() -> Result<StopSignals> {
     Ok(StopSignals { stop, sigterm })
 }
 
+fn merge_films(args: &MergeArgs) -> Result<()> {
+    output::check_writable(&args.output, film::FORMATS)?;
+    if let Some(path) = &args.film {
+        output::check_writable(path, &["exr"])?;
+    }
+    let parts = args
+        .films
+        .iter()
+        .map(|p| merge::Part::read(p))
+        .collect::<clpt::error::Result<Vec<_>>>()?;
+    let count = parts.len();
+    let (state, meta): (FilmState, _) = merge::merge(parts)?;
+    let spp = meta.samples.1 - meta.samples.0;
+    state.film(spp).write(&args.output)?;
+    if let Some(path) = &args.film {
+        state.write(path, &meta)?;
+    }
+    let e = state.estimated_error(spp);
+    eprintln!(
+        "{}: {count} films, samples {}..{} ({spp} spp), {:.2} s of rendering on {}; estimated RMSE {:.3e}, relMSE {:.3e}",
+        args.output.display(),
+        meta.samples.0,
+        meta.samples.1,
+        meta.seconds,
+        meta.device,
+        e.rmse,
+        e.relmse
+    );
+    Ok(())
+}
+
 fn compare(args: &CompareArgs) -> Result<()> {
     if let Some(path) = &args.error_image {
         output::check_writable(path, &["png"])?;
@@ -733,6 +819,7 @@ fn main() -> std::process::ExitCode {
         Command::Bench(args) => bench(args).map(|()| 0),
         Command::Compare(args) => compare(args).map(|()| 0),
         Command::Plot(args) => plot(args).map(|()| 0),
+        Command::Merge(args) => merge_films(args).map(|()| 0),
     };
     match result {
         Ok(status) => std::process::ExitCode::from(status),

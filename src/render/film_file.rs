@@ -123,10 +123,10 @@ impl FilmMeta {
         if self.options != expected.options {
             return differs("options", &self.options, &expected.options);
         }
-        if self.samples.0 != 0 {
+        if self.samples.0 != expected.samples.0 {
             return Err(format!(
-                "it holds samples {}..{}, not a render's first samples",
-                self.samples.0, self.samples.1
+                "it holds samples {}..{}, this render starts at sample {}",
+                self.samples.0, self.samples.1, expected.samples.0
             ));
         }
         Ok(())
@@ -164,6 +164,37 @@ impl FilmState {
             &self.sum_odd,
             &self.sum_odd_lo,
         ]
+    }
+
+    /// The error of the mean image of `spp` samples (from a multiple of 8) estimated from the
+    /// film alone, in f64: the formula of kernels/pathtracer.cl `error_rows` (the even and odd
+    /// groups' means differ by the error's spread; squared, times n_even n_odd / n², they
+    /// estimate the variance of the mean). For films that never were on a device (`clpt
+    /// merge`); tests/resume.rs checks it against the kernel's figure.
+    pub fn estimated_error(&self, spp: u32) -> super::ErrorEstimate {
+        let n = f64::from(spp);
+        let rest = spp % 8;
+        let n_odd = f64::from((spp / 8) * 4 + rest.saturating_sub(4));
+        let n_even = n - n_odd;
+        let k = n_even * n_odd / (n * n);
+        let eps = f64::from(super::metrics::REL_EPSILON);
+        let (mut est, mut rel) = (0.0, 0.0);
+        for i in 0..self.sum.len() {
+            for c in 0..3 {
+                let all = f64::from(self.sum[i][c]) + f64::from(self.sum_lo[i][c]);
+                let odd = f64::from(self.sum_odd[i][c]) + f64::from(self.sum_odd_lo[i][c]);
+                let mean = all / n;
+                let diff = (all - odd) / n_even - odd / n_odd;
+                let var = diff * diff * k;
+                est += var;
+                rel += var / (mean * mean + eps);
+            }
+        }
+        let count = 3.0 * self.sum.len() as f64;
+        super::ErrorEstimate {
+            rmse: (est / count).sqrt(),
+            relmse: rel / count,
+        }
     }
 
     /// The film these sums make after `spp` samples: its sum the pair added in f64.

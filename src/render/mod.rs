@@ -13,6 +13,7 @@ pub mod efficiency;
 pub mod features;
 pub mod film;
 pub mod film_file;
+pub mod merge;
 pub mod metrics;
 pub mod report;
 pub mod resume;
@@ -96,6 +97,11 @@ pub const BVH_MIN_OBJECTS: usize = 32;
 pub struct RenderOptions {
     /// Samples (paths) per pixel; `None`: no limit (then `time_limit` must be set).
     pub spp: Option<u32>,
+    /// The index of the first sample the render traces (a multiple of 8, so that the samples
+    /// come in whole groups of eight, each half of the error estimate's four): it renders
+    /// samples `first_sample .. first_sample + spp`, one shard of a longer render
+    /// (`clpt merge` joins shards).
+    pub first_sample: u32,
     /// Stop at the first pass boundary after this much rendering time.
     pub time_limit: Option<Duration>,
     /// The 64-bit key of every random number.
@@ -132,6 +138,7 @@ impl Default for RenderOptions {
     fn default() -> Self {
         RenderOptions {
             spp: Some(64),
+            first_sample: 0,
             time_limit: None,
             seed: 0,
             max_depth: 65536,
@@ -414,6 +421,12 @@ impl<'d> Renderer<'d> {
             return Err(Error::Invalid(
                 "a render needs a sample count, a time limit or a target error".into(),
             ));
+        }
+        if !options.first_sample.is_multiple_of(8) {
+            return Err(Error::Invalid(format!(
+                "the first sample {} is not a multiple of 8: a shard holds whole groups of eight",
+                options.first_sample
+            )));
         }
         let packed = PackedScene::new(scene, options.max_texture_pixels)?;
         let filter = match options.texture_filter {
@@ -752,7 +765,7 @@ impl<'d> Renderer<'d> {
                 self.clear_film()?;
             }
             self.select(candidate)?;
-            let seconds = self.render_rows(rows, 0, plan.samples)?;
+            let seconds = self.render_rows(rows, self.options.first_sample, plan.samples)?;
             let rgb = |buffer: &ocl::Buffer<f32>| -> Result<Vec<[f32; 3]>> {
                 let flat = self.read_rows(buffer, rows)?;
                 Ok(flat.chunks_exact(4).map(|c| [c[0], c[1], c[2]]).collect())
@@ -827,7 +840,11 @@ impl<'d> Renderer<'d> {
             while row < height {
                 let rows = rows_per_launch.min(height - row);
                 let t0 = Instant::now();
-                self.launch(Rows::band(row, rows), spp_done, count)?;
+                self.launch(
+                    Rows::band(row, rows),
+                    self.options.first_sample + spp_done,
+                    count,
+                )?;
                 let secs = t0.elapsed().as_secs_f64().max(1e-6);
                 pass_rate = pass_rate.min(rows as f64 * width as f64 * count as f64 / secs);
                 launches += 1;
@@ -835,7 +852,7 @@ impl<'d> Renderer<'d> {
             }
             spp_done += count;
             passes += 1;
-            if spp_done > u32::MAX - (1 << 16) {
+            if self.options.first_sample + spp_done > u32::MAX - (1 << 16) {
                 break; // sample indices are 32-bit
             }
             let mut estimate = None;
@@ -935,10 +952,11 @@ impl<'d> Renderer<'d> {
             .collect())
     }
 
-    /// Continues a render from a film that holds samples 0 .. `samples` of `strategy` (a
-    /// checkpoint, read by [`film_file::FilmState::read`]): the film goes onto the device bit
-    /// for bit, and the next render runs `strategy` (no trial) from sample `samples`, so its
-    /// image is the one an uninterrupted render gives.
+    /// Continues a render from a film that holds `samples` samples per pixel of `strategy`
+    /// (indices `first_sample ..` of the options; a checkpoint, read by
+    /// [`film_file::FilmState::read`]): the film goes onto the device bit for bit, and the next
+    /// render runs `strategy` (no trial) from the next sample, so its image is the one an
+    /// uninterrupted render gives.
     pub fn resume(
         &mut self,
         state: &film_file::FilmState,

@@ -24,9 +24,9 @@ pub struct Checkpoint {
 }
 
 impl Checkpoint {
-    /// Samples per pixel it holds (indices 0 .. this).
+    /// Samples per pixel it holds.
     pub fn samples(&self) -> u32 {
-        self.meta.samples.1
+        self.meta.samples.1 - self.meta.samples.0
     }
 
     /// `options` with its strategy fixed to the checkpoint's.
@@ -71,14 +71,23 @@ pub fn read_for_resume(
             "it was rendered with {strategy}, and --rr-threshold asks {t}"
         )));
     }
-    let expected = FilmMeta::of_render(scene_file, options, strategy, size, meta.samples, "", 0.0)?;
+    let first = options.first_sample;
+    let expected = FilmMeta::of_render(
+        scene_file,
+        options,
+        strategy,
+        size,
+        (first, meta.samples.1),
+        "",
+        0.0,
+    )?;
     meta.check_continues(&expected).map_err(refuse)?;
+    let held = meta.samples.1 - meta.samples.0;
     if let Some(total) = options.spp
-        && total < meta.samples.1
+        && total < held
     {
         return Err(refuse(format!(
-            "it holds {} samples per pixel, more than the {total} asked for",
-            meta.samples.1
+            "it holds {held} samples per pixel, more than the {total} asked for"
         )));
     }
     Ok(Checkpoint {
@@ -98,9 +107,9 @@ pub struct FilmRecord<'a> {
 }
 
 impl FilmRecord<'_> {
-    /// Writes `renderer`'s film, samples 0 .. `samples` of `strategy` after `seconds` of this
-    /// run, as a film file at `path` (atomically: an earlier file stays whole until the new one
-    /// is complete).
+    /// Writes `renderer`'s film, `samples` samples per pixel of `strategy` (from the options'
+    /// first sample) after `seconds` of this run, as a film file at `path` (atomically: an
+    /// earlier file stays whole until the new one is complete).
     pub fn write(
         &self,
         path: &Path,
@@ -114,7 +123,10 @@ impl FilmRecord<'_> {
             self.options,
             strategy,
             (renderer.width(), renderer.height()),
-            (0, samples),
+            (
+                self.options.first_sample,
+                self.options.first_sample + samples,
+            ),
             self.device,
             self.seconds_before + seconds,
         )?;
