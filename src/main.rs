@@ -7,13 +7,13 @@ use clpt::device::{self};
 use clpt::output;
 use clpt::render::bench::{BenchResult, bench_scene};
 use clpt::render::film_file::FilmState;
-use clpt::render::merge;
 use clpt::render::metrics::{self, LinearImage};
 use clpt::render::resume::{self, FilmRecord};
 use clpt::render::{
     Flow, ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter, efficiency, film, report,
     strategy::{LightSampling, Roulette},
 };
+use clpt::render::{merge, multi};
 use clpt::scene::{Scene, builtin};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -116,7 +116,8 @@ struct CompareArgs {
 #[derive(Args)]
 struct DeviceArgs {
     /// Device: an index from `clpt devices` or part of its name [env: CLPT_DEVICE]
-    /// [default: the first GPU, else the first device]
+    /// [default: the first GPU, else the first device]; `render` also takes `all` or a list
+    /// (`0,2`) to split the samples over several devices.
     #[arg(short, long)]
     device: Option<String>,
     /// Read kernel sources from DIR instead of the copies built into the binary.
@@ -125,6 +126,28 @@ struct DeviceArgs {
 }
 
 impl DeviceArgs {
+    /// `all` or a comma-separated list: several devices (each entry as --device takes it).
+    fn several(&self) -> Option<Vec<String>> {
+        match self.device.as_deref()? {
+            "all" => Some(
+                (0..device::list().map_or(0, |l| l.len()))
+                    .map(|i| i.to_string())
+                    .collect(),
+            ),
+            list if list.contains(',') => {
+                Some(list.split(',').map(|s| s.trim().to_string()).collect())
+            }
+            _ => None,
+        }
+    }
+
+    fn sources(&self) -> KernelSources {
+        match &self.kernels {
+            Some(dir) => KernelSources::Dir(dir.clone()),
+            None => KernelSources::Embedded,
+        }
+    }
+
     fn open(&self) -> Result<(device::Device, KernelSources)> {
         let device = device::select(self.device.as_deref())?;
         let sources = match &self.kernels {
@@ -437,6 +460,9 @@ fn render(args: &RenderArgs) -> Result<u8> {
         }
         None => None,
     };
+    if let Some(list) = args.device.several() {
+        return render_on_devices(args, &scene, &options, &output, &list);
+    }
     let stop = stop_on_signals()?;
     let (device, sources) = args.device.open()?;
     if args.verbose {
@@ -637,6 +663,120 @@ fn render(args: &RenderArgs) -> Result<u8> {
         );
         return Ok(status);
     }
+    Ok(0)
+}
+
+/// `render --device all|A,B,...`: the samples split over several devices (render/multi.rs).
+fn render_on_devices(
+    args: &RenderArgs,
+    scene: &Scene,
+    options: &RenderOptions,
+    output: &Path,
+    list: &[String],
+) -> Result<u8> {
+    for (given, flag) in [
+        (args.resume.is_some(), "--resume"),
+        (args.checkpoint.is_some(), "--checkpoint"),
+        (args.report.is_some(), "--report"),
+        (args.plot.is_some(), "--plot"),
+        (args.reference.is_some(), "--reference"),
+        (args.target_error.is_some(), "--target-error"),
+        (args.time.is_some(), "--time"),
+        (args.dump_kernel.is_some(), "--dump-kernel"),
+    ] {
+        if given {
+            bail!("{flag} works with one device; several devices render a sample count (--spp)");
+        }
+    }
+    if list.is_empty() {
+        bail!("--device all: no OpenCL device found");
+    }
+    let devices = list
+        .iter()
+        .map(|d| device::select(Some(d)).with_context(|| format!("--device entry `{d}`")))
+        .collect::<Result<Vec<_>>>()?;
+    let total = options.spp.unwrap_or(64);
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(total as u64).with_style(
+            ProgressStyle::with_template(
+                "{elapsed_precise} [{bar:40}] {pos}/{len} spp  {msg}  ETA {eta}",
+            )?
+            .progress_chars("=> "),
+        )
+    };
+    let pixels = f64::from(scene.camera.width) * f64::from(scene.camera.height);
+    let result = multi::render_on_devices(
+        &devices,
+        scene,
+        &args.device.sources(),
+        options,
+        &|p: &multi::MultiProgress| {
+            bar.set_position(p.spp_done as u64);
+            let rate = pixels * f64::from(p.spp_done) / p.elapsed.as_secs_f64().max(1e-9);
+            let shares: Vec<String> = p
+                .shares
+                .iter()
+                .map(|s| {
+                    format!(
+                        "{}%",
+                        (100 * s.samples).checked_div(p.spp_done).unwrap_or(0)
+                    )
+                })
+                .collect();
+            bar.set_message(format!(
+                "{:.2} Mpaths/s, shares {}",
+                rate / 1e6,
+                shares.join(" ")
+            ));
+        },
+    )?;
+    bar.finish_and_clear();
+    let film = result.film.film(total);
+    film.write(output)?;
+    let strategy = result.choice.strategy();
+    let names: Vec<&str> = result.shares.iter().map(|s| s.device.as_str()).collect();
+    if let Some(path) = &args.film {
+        FilmRecord {
+            scene_file: args.scene.as_deref(),
+            options,
+            device: &names.join(", "),
+            seconds_before: 0.0,
+        }
+        .write_state(
+            path,
+            &result.film,
+            (scene.camera.width, scene.camera.height),
+            strategy,
+            total,
+            result.elapsed.as_secs_f64(),
+        )?;
+    }
+    eprintln!("estimator: {}", result.choice);
+    for (i, s) in result.shares.iter().enumerate() {
+        eprintln!(
+            "device {}: {}, {} spp ({:.0}%) in {:.2} s",
+            list[i],
+            s.device,
+            s.samples,
+            100.0 * f64::from(s.samples) / f64::from(total.max(1)),
+            s.seconds
+        );
+    }
+    let e = result.film.estimated_error(total);
+    eprintln!(
+        "{}: {}x{}, {total} spp on {} device{} in {:.2} s ({:.2} Mpaths/s); estimated RMSE {:.3e}, relMSE {:.3e}",
+        output.display(),
+        film.width,
+        film.height,
+        devices.len(),
+        if devices.len() == 1 { "" } else { "s" },
+        result.elapsed.as_secs_f64(),
+        pixels * f64::from(total) / result.elapsed.as_secs_f64().max(1e-9) / 1e6,
+        e.rmse,
+        e.relmse
+    );
     Ok(0)
 }
 

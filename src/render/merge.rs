@@ -92,51 +92,11 @@ pub fn merge(mut parts: Vec<Part>) -> Result<(FilmState, FilmMeta)> {
             )));
         }
     }
-    let n = parts[0].state.sum.len();
-    let mut out = FilmState {
-        width: parts[0].state.width,
-        height: parts[0].state.height,
-        sum: vec![[0.0; 4]; n],
-        sum_lo: vec![[0.0; 4]; n],
-        sum_sq: vec![[0.0; 4]; n],
-        sum_odd: vec![[0.0; 4]; n],
-        sum_odd_lo: vec![[0.0; 4]; n],
-        bad: vec![0; n],
-        bad_first: vec![0; n],
-    };
-    let mut sum = vec![[0.0f64; 4]; n];
-    let mut odd = vec![[0.0f64; 4]; n];
-    let mut sq = vec![[0.0f64; 4]; n];
+    let mut total = Accumulator::new(parts[0].state.width, parts[0].state.height);
     for p in &parts {
-        let s = &p.state;
-        for i in 0..n {
-            for c in 0..4 {
-                sum[i][c] += f64::from(s.sum[i][c]) + f64::from(s.sum_lo[i][c]);
-                odd[i][c] += f64::from(s.sum_odd[i][c]) + f64::from(s.sum_odd_lo[i][c]);
-                sq[i][c] += f64::from(s.sum_sq[i][c]);
-            }
-            if s.bad[i] > 0 {
-                out.bad_first[i] = if out.bad[i] == 0 {
-                    s.bad_first[i]
-                } else {
-                    out.bad_first[i].min(s.bad_first[i])
-                };
-                out.bad[i] = out.bad[i].saturating_add(s.bad[i]);
-            }
-        }
+        total.add(&p.state);
     }
-    // Each f64 sum back into a pair: hi its nearest f32, lo the rest's.
-    let split = |v: f64| {
-        let hi = v as f32;
-        (hi, (v - f64::from(hi)) as f32)
-    };
-    for i in 0..n {
-        for c in 0..4 {
-            (out.sum[i][c], out.sum_lo[i][c]) = split(sum[i][c]);
-            (out.sum_odd[i][c], out.sum_odd_lo[i][c]) = split(odd[i][c]);
-            out.sum_sq[i][c] = sq[i][c] as f32;
-        }
-    }
+    let out = total.film();
     let mut devices: Vec<&str> = Vec::new();
     for p in &parts {
         if !devices.contains(&p.meta.device.as_str()) {
@@ -153,6 +113,81 @@ pub fn merge(mut parts: Vec<Part>) -> Result<(FilmState, FilmMeta)> {
         ..parts[0].meta.clone()
     };
     Ok((out, meta))
+}
+
+/// Films of disjoint sample sets of one render added up: each pixel's compensated pairs
+/// (hi + lo) summed in f64 (exact to about 1e-16 of the sum, far below the pairs' own 1e-7),
+/// the squares in f64, the non-finite counts added and the first such sample the least.
+pub struct Accumulator {
+    width: u32,
+    height: u32,
+    sum: Vec<[f64; 4]>,
+    odd: Vec<[f64; 4]>,
+    sq: Vec<[f64; 4]>,
+    bad: Vec<u32>,
+    bad_first: Vec<u32>,
+}
+
+impl Accumulator {
+    pub fn new(width: u32, height: u32) -> Accumulator {
+        let n = width as usize * height as usize;
+        Accumulator {
+            width,
+            height,
+            sum: vec![[0.0; 4]; n],
+            odd: vec![[0.0; 4]; n],
+            sq: vec![[0.0; 4]; n],
+            bad: vec![0; n],
+            bad_first: vec![0; n],
+        }
+    }
+
+    /// Adds a film of the same size.
+    pub fn add(&mut self, s: &FilmState) {
+        for i in 0..self.sum.len() {
+            for c in 0..4 {
+                self.sum[i][c] += f64::from(s.sum[i][c]) + f64::from(s.sum_lo[i][c]);
+                self.odd[i][c] += f64::from(s.sum_odd[i][c]) + f64::from(s.sum_odd_lo[i][c]);
+                self.sq[i][c] += f64::from(s.sum_sq[i][c]);
+            }
+            if s.bad[i] > 0 {
+                self.bad_first[i] = if self.bad[i] == 0 {
+                    s.bad_first[i]
+                } else {
+                    self.bad_first[i].min(s.bad_first[i])
+                };
+                self.bad[i] = self.bad[i].saturating_add(s.bad[i]);
+            }
+        }
+    }
+
+    /// The sums as a film: each f64 sum back into a pair, hi its nearest f32 and lo the rest's.
+    pub fn film(&self) -> FilmState {
+        let split = |v: f64| {
+            let hi = v as f32;
+            (hi, (v - f64::from(hi)) as f32)
+        };
+        let n = self.sum.len();
+        let mut out = FilmState {
+            width: self.width,
+            height: self.height,
+            sum: vec![[0.0; 4]; n],
+            sum_lo: vec![[0.0; 4]; n],
+            sum_sq: vec![[0.0; 4]; n],
+            sum_odd: vec![[0.0; 4]; n],
+            sum_odd_lo: vec![[0.0; 4]; n],
+            bad: self.bad.clone(),
+            bad_first: self.bad_first.clone(),
+        };
+        for i in 0..n {
+            for c in 0..4 {
+                (out.sum[i][c], out.sum_lo[i][c]) = split(self.sum[i][c]);
+                (out.sum_odd[i][c], out.sum_odd_lo[i][c]) = split(self.odd[i][c]);
+                out.sum_sq[i][c] = self.sq[i][c] as f32;
+            }
+        }
+        out
+    }
 }
 
 /// Samples `A..B` (`--samples`): A a multiple of 8, B past it.

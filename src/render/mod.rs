@@ -15,6 +15,7 @@ pub mod film;
 pub mod film_file;
 pub mod merge;
 pub mod metrics;
+pub mod multi;
 pub mod report;
 pub mod resume;
 pub mod strategy;
@@ -132,6 +133,18 @@ pub struct RenderOptions {
     /// Next-event estimation with MIS (kernels/nee.h): on, off (pure path tracing, the
     /// original's), or chosen by measured efficiency ([`strategy`]).
     pub light_sampling: LightSampling,
+}
+
+impl RenderOptions {
+    /// Fixes the estimator to `strategy` (no trial).
+    pub fn pin(&mut self, strategy: Strategy) {
+        self.light_sampling = if strategy.light_sampling {
+            LightSampling::On
+        } else {
+            LightSampling::Off
+        };
+        self.roulette = Roulette::Threshold(strategy.rr_threshold);
+    }
 }
 
 impl Default for RenderOptions {
@@ -993,10 +1006,29 @@ impl<'d> Renderer<'d> {
         }
         self.bad.write(&state.bad).enq().map_err(fail)?;
         self.bad_first.write(&state.bad_first).enq().map_err(fail)?;
-        self.candidates = vec![strategy];
-        self.select(strategy)?;
+        self.fix_strategy(strategy)?;
         self.start_samples = samples;
         Ok(())
+    }
+
+    /// Makes every later render run `strategy`, without a trial.
+    pub fn fix_strategy(&mut self, strategy: Strategy) -> Result<()> {
+        self.candidates = vec![strategy];
+        self.select(strategy)
+    }
+
+    /// The next render traces samples `first .. first + spp` (`first` a multiple of 8) into a
+    /// cleared film: a share of a render that several devices split (render/multi.rs).
+    pub fn set_range(&mut self, first: u32, spp: u32) -> Result<()> {
+        if !first.is_multiple_of(8) {
+            return Err(Error::Invalid(format!(
+                "the first sample {first} is not a multiple of 8"
+            )));
+        }
+        self.options.first_sample = first;
+        self.options.spp = Some(spp);
+        self.start_samples = 0;
+        self.clear_film()
     }
 
     /// The whole film as the device holds it (to write a film file).

@@ -31,12 +31,7 @@ impl Checkpoint {
 
     /// `options` with its strategy fixed to the checkpoint's.
     pub fn fix_strategy(&self, options: &mut RenderOptions) {
-        options.light_sampling = if self.strategy.light_sampling {
-            LightSampling::On
-        } else {
-            LightSampling::Off
-        };
-        options.roulette = Roulette::Threshold(self.strategy.rr_threshold);
+        options.pin(self.strategy);
     }
 }
 
@@ -118,18 +113,36 @@ impl FilmRecord<'_> {
         samples: u32,
         seconds: f64,
     ) -> Result<()> {
+        self.write_state(
+            path,
+            &renderer.film_state()?,
+            (renderer.width(), renderer.height()),
+            strategy,
+            samples,
+            seconds,
+        )
+    }
+
+    /// [`Self::write`] for a film held on the host (`state`, of an image of `size`).
+    pub fn write_state(
+        &self,
+        path: &Path,
+        state: &FilmState,
+        size: (u32, u32),
+        strategy: Strategy,
+        samples: u32,
+        seconds: f64,
+    ) -> Result<()> {
+        let first = self.options.first_sample;
         let meta = FilmMeta::of_render(
             self.scene_file,
             self.options,
             strategy,
-            (renderer.width(), renderer.height()),
-            (
-                self.options.first_sample,
-                self.options.first_sample + samples,
-            ),
+            size,
+            (first, first + samples),
             self.device,
             self.seconds_before + seconds,
         )?;
-        renderer.film_state()?.write(path, &meta)
+        state.write(path, &meta)
     }
 }
