@@ -239,7 +239,8 @@ struct RenderArgs {
     #[arg(long, value_name = "SECONDS")]
     time: Option<f64>,
     /// Stop at the first pass whose estimated relMSE is at most E, once the estimate has
-    /// settled (relMSE x spp grown by at most 25% since half the samples).
+    /// settled (relMSE x spp grown by at most 25% since half the samples); at the latest at
+    /// --spp, or --time, or without either at 65536 samples per pixel.
     #[arg(long, value_name = "E")]
     target_error: Option<f64>,
     /// A converged image of the same scene and size (PFM or EXR): the report then gives the
@@ -337,7 +338,10 @@ fn options(
     time: Option<f64>,
 ) -> Result<RenderOptions> {
     let time_limit = match time {
-        Some(t) if t.is_finite() && t > 0.0 => Some(Duration::from_secs_f64(t)),
+        Some(t) if t.is_finite() && t > 0.0 => Some(
+            Duration::try_from_secs_f64(t)
+                .map_err(|_| anyhow::anyhow!("--time {t}: too long a time limit"))?,
+        ),
         Some(t) => bail!("--time must be a positive number of seconds, got {t}"),
         None => None,
     };
@@ -376,6 +380,9 @@ fn default_output(scene: Option<&Path>) -> PathBuf {
     PathBuf::from(format!("{stem}.png"))
 }
 
+/// The most samples per pixel `--target-error` renders when neither `--spp` nor `--time` bounds it.
+const TARGET_ERROR_MAX_SPP: u32 = 1 << 16;
+
 /// Renders; the exit status: 0, or 130 (SIGINT) or 143 (SIGTERM) when a signal ended the
 /// render after writing its image and checkpoint.
 fn render(args: &RenderArgs) -> Result<u8> {
@@ -410,7 +417,13 @@ fn render(args: &RenderArgs) -> Result<u8> {
         }
         options.target_error = Some(e);
         if args.spp.is_none() {
-            options.spp = None; // the target decides, or --time
+            // The target decides, within --time; without one, within a cap, so that an
+            // unreachable target (1e-30) still ends.
+            options.spp = if args.time.is_some() {
+                None
+            } else {
+                Some(TARGET_ERROR_MAX_SPP)
+            };
         }
     }
     if let Some(path) = &args.reference {
@@ -638,6 +651,20 @@ fn render(args: &RenderArgs) -> Result<u8> {
             "convergence: estimated RMSE {:.3e}, relMSE {:.3e}{measured}",
             last.estimate.rmse, last.estimate.relmse
         );
+        if let Some(target) = options.target_error
+            && last.estimate.relmse > target
+            && !stats.stopped
+        {
+            eprintln!(
+                "warning: the target relMSE {target:.3e} was not reached by {} samples per pixel{}",
+                film.spp,
+                if args.spp.is_none() && args.time.is_none() {
+                    " (the cap without --spp or --time)"
+                } else {
+                    ""
+                }
+            );
+        }
     }
     eprintln!(
         "{}: {}x{}, {} spp in {:.2} s ({:.2} Mpaths/s)",

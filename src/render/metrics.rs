@@ -43,7 +43,7 @@ impl LinearImage {
             path: path.to_path_buf(),
             source,
         })?;
-        match ext.as_str() {
+        let image = match ext.as_str() {
             "pfm" => read_pfm(&bytes).map_err(fail),
             "exr" | "png" | "ppm" => {
                 let image = image::load_from_memory(&bytes).map_err(|e| fail(e.to_string()))?;
@@ -63,7 +63,21 @@ impl LinearImage {
             _ => Err(fail(format!(
                 "unknown image format `.{ext}`: use .pfm, .exr, .png or .ppm"
             ))),
+        }?;
+        // A NaN or infinity would make every metric NaN and say nothing: name it instead.
+        let bad: Vec<usize> = (0..image.rgb.len())
+            .filter(|&i| !image.rgb[i].iter().all(|c| c.is_finite()))
+            .collect();
+        if let Some(&first) = bad.first() {
+            let w = image.width.max(1) as usize;
+            return Err(fail(format!(
+                "{} pixels are not finite (NaN or infinite), the first at ({}, {}) from the top left",
+                bad.len(),
+                first % w,
+                first / w
+            )));
         }
+        Ok(image)
     }
 
     /// The metrics of `self` against `reference`, which must have the same size.
@@ -167,15 +181,19 @@ fn read_pfm(bytes: &[u8]) -> std::result::Result<LinearImage, String> {
     let scale: f32 = fields[3]
         .parse()
         .map_err(|_| format!("bad scale `{}`", fields[3]))?;
-    let count = width as usize * height as usize;
+    // In u64, checked: a header may claim any size, and no allocation comes before the check.
+    let expected = u64::from(width)
+        .checked_mul(u64::from(height))
+        .and_then(|n| n.checked_mul(12));
     let data = bytes.get(at..).unwrap_or_default();
-    if data.len() < count * 12 {
+    if expected.is_none_or(|e| (data.len() as u64) < e) {
         return Err(format!(
-            "{} bytes of pixel data, {} expected",
+            "{} bytes of pixel data, {width} x {height} pixels need {}",
             data.len(),
-            count * 12
+            expected.map_or("more than 2^64".to_string(), |e| e.to_string())
         ));
     }
+    let count = width as usize * height as usize;
     let value = |i: usize| {
         let b = [
             data[4 * i],

@@ -1,0 +1,107 @@
+//! Hostile input (issue 14): inputs that crashed, hung or printed NaN now end with a clear
+//! error (exit status 1) or, for an unreachable target error, a bounded render and a warning.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn clpt(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_clpt"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("clpt-hostile-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn pfm(pixels: &[[f32; 3]], width: u32) -> Vec<u8> {
+    let height = pixels.len() as u32 / width;
+    let mut bytes = format!("PF\n{width} {height}\n-1.0\n").into_bytes();
+    for p in pixels {
+        for c in p {
+            bytes.extend(c.to_le_bytes());
+        }
+    }
+    bytes
+}
+
+fn refused(out: &Output, reason: &str) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains(reason) && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn absurd_and_non_finite_images_are_errors() {
+    let dir = scratch("images");
+    let path = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    std::fs::write(path("one.pfm"), pfm(&[[1.0; 3]], 1)).unwrap();
+    // Headers claiming 2^62 pixels, with no data: no allocation, no overflow.
+    std::fs::write(path("huge.pfm"), b"PF\n2147483648 2147483648\n-1.0\n").unwrap();
+    std::fs::write(path("huge2.pfm"), b"PF\n2147483647 2147483647\n-1.0\nAAAA").unwrap();
+    std::fs::write(path("nan.pfm"), pfm(&[[1.0; 3], [f32::NAN, 1.0, 1.0]], 2)).unwrap();
+    std::fs::write(path("inf.pfm"), pfm(&[[f32::INFINITY; 3]], 1)).unwrap();
+    for (image, reason) in [
+        ("huge.pfm", "pixels need more than 2^64"),
+        ("huge2.pfm", "pixels need more than 2^64"),
+        (
+            "nan.pfm",
+            "1 pixels are not finite (NaN or infinite), the first at (1, 0)",
+        ),
+        ("inf.pfm", "not finite"),
+    ] {
+        refused(&clpt(&["compare", &path(image), &path("one.pfm")]), reason);
+        let (out, reference) = (path("x.pfm"), path(image));
+        let render = [
+            "render", "--width", "1", "--height", "1", "--spp", "8", "-q",
+        ];
+        let mut a = render.to_vec();
+        a.extend(["--reference", &reference, "-o", &out]);
+        refused(&clpt(&a), reason);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_absurd_time_limit_is_an_error() {
+    refused(
+        &clpt(&["render", "--time", "1e20", "-o", "x.pfm"]),
+        "too long a time limit",
+    );
+}
+
+#[test]
+fn an_unreachable_target_error_alone_still_ends() {
+    let dir = scratch("target");
+    let out = dir.join("x.pfm");
+    let r = clpt(&[
+        "render",
+        "--width",
+        "2",
+        "--height",
+        "2",
+        "--target-error",
+        "1e-30",
+        "--light-sampling",
+        "off",
+        "--rr-threshold",
+        "0.3",
+        "-q",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("65536 spp") && stderr.contains("was not reached by 65536 samples"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
