@@ -105,3 +105,61 @@ fn an_unreachable_target_error_alone_still_ends() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A cached program cut to half its length (which once made PoCL crash on every later run of
+/// the scene) is noticed before the driver sees it: the program is rebuilt and the file
+/// replaced, and the next run loads it again.
+#[test]
+fn a_cut_cached_program_is_rebuilt_and_replaced() {
+    let dir = scratch("cache");
+    let cache = dir.join("programs");
+    let out = dir.join("x.pfm");
+    let render = || {
+        clpt(&[
+            "render",
+            "--width",
+            "4",
+            "--height",
+            "4",
+            "--spp",
+            "8",
+            "--light-sampling",
+            "off",
+            "--rr-threshold",
+            "0.3",
+            "-v",
+            "-q",
+            "--cache-dir",
+            cache.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ])
+    };
+    let first = render();
+    assert!(
+        first.status.success(),
+        "{}",
+        String::from_utf8_lossy(&first.stderr)
+    );
+    let files: Vec<PathBuf> = std::fs::read_dir(&cache)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(files.len(), 1, "{files:?}");
+    let whole = std::fs::read(&files[0]).unwrap();
+    std::fs::write(&files[0], &whole[..whole.len() / 2]).unwrap();
+    let second = render();
+    let stderr = String::from_utf8_lossy(&second.stderr);
+    assert!(second.status.success(), "{stderr}");
+    assert!(stderr.contains("built in"), "rebuilt: {stderr}");
+    // Replaced by a whole file (PoCL's binaries differ a little in size from build to build);
+    // that the next run loads it shows its frame is whole.
+    assert!(
+        std::fs::read(&files[0]).unwrap().len() > whole.len() / 2,
+        "replaced"
+    );
+    let third = render();
+    let stderr = String::from_utf8_lossy(&third.stderr);
+    assert!(stderr.contains("loaded from the cache"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -3,7 +3,9 @@
 //! all of these go into its key (LuxCore's cache left the driver version out, and its users got
 //! stale binaries after driver updates). The key is a 128-bit FNV-1a hash, stable across Rust
 //! releases; files are written to a temporary name and renamed, so a crash leaves no half file
-//! and concurrent renders never read one. A binary the driver refuses is rebuilt from source.
+//! and concurrent renders never read one. Each file frames its binary with a length and a
+//! checksum that are checked before the driver sees it ([`load`]); a file that fails them, or a
+//! binary the driver refuses, is rebuilt from source and replaced.
 //! Kernel counterpart: none (the loader, [`super::program`], calls it).
 
 use super::Device;
@@ -61,17 +63,66 @@ pub fn fingerprint(parts: &[&[u8]]) -> String {
     )
 }
 
-/// The cached binary under `dir` for `key`, if there is one.
-pub fn load(dir: &Path, key: &str) -> Option<Vec<u8>> {
-    std::fs::read(dir.join(key)).ok().filter(|b| !b.is_empty())
+/// What a cache file starts with, before the binary's length (u64, little-endian) and its
+/// [`fingerprint`] (32 hex digits): a driver handed a cut or damaged binary may crash (PoCL
+/// asserted on a header-only file, and every later run of that scene died with it), so the
+/// cache checks its own frame before the driver sees a byte.
+const MAGIC: &[u8; 10] = b"clpt-bin1\n";
+
+/// The binary in a cache file's bytes, when the frame is whole and the checksum agrees.
+fn unframe(bytes: &[u8]) -> Option<&[u8]> {
+    let rest = bytes.strip_prefix(MAGIC.as_slice())?;
+    let (length, rest) = rest.split_at_checked(8)?;
+    let length = u64::from_le_bytes(length.try_into().ok()?);
+    let (sum, binary) = rest.split_at_checked(32)?;
+    (binary.len() as u64 == length
+        && !binary.is_empty()
+        && sum == fingerprint(&[binary]).as_bytes())
+    .then_some(binary)
 }
 
-/// Stores `binary` under `dir` for `key`, atomically (crate::output): a crash never leaves a
-/// cut binary for a later run to load.
+/// The cached binary under `dir` for `key`, if there is a whole one. A file that is cut,
+/// damaged or of an older format reads as none: the program is rebuilt and the file replaced.
+pub fn load(dir: &Path, key: &str) -> Option<Vec<u8>> {
+    let bytes = std::fs::read(dir.join(key)).ok()?;
+    unframe(&bytes).map(<[u8]>::to_vec)
+}
+
+/// Stores `binary` under `dir` for `key` in its frame, atomically (crate::output): a crash
+/// never leaves a cut file, and one cut any other way is caught by [`load`].
 pub fn store(dir: &Path, key: &str, binary: &[u8]) -> crate::error::Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| crate::error::Error::Write {
         path: dir.to_path_buf(),
         message: e.to_string(),
     })?;
-    crate::output::write_bytes(&dir.join(key), binary)
+    let mut framed = MAGIC.to_vec();
+    framed.extend((binary.len() as u64).to_le_bytes());
+    framed.extend(fingerprint(&[binary]).as_bytes());
+    framed.extend(binary);
+    crate::output::write_bytes(&dir.join(key), &framed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_whole_frames_with_their_checksum_load() {
+        let dir = std::env::temp_dir().join(format!("clpt-cache-frame-{}", std::process::id()));
+        let binary: Vec<u8> = (0..1000u32).map(|i| (i * 7) as u8).collect();
+        store(&dir, "k.bin", &binary).unwrap();
+        assert_eq!(load(&dir, "k.bin"), Some(binary.clone()));
+        let whole = std::fs::read(dir.join("k.bin")).unwrap();
+        for cut in [0, 5, MAGIC.len() + 8, whole.len() / 2, whole.len() - 1] {
+            std::fs::write(dir.join("k.bin"), &whole[..cut]).unwrap();
+            assert_eq!(load(&dir, "k.bin"), None, "cut to {cut} bytes");
+        }
+        let mut flipped = whole.clone();
+        flipped[whole.len() - 10] ^= 1;
+        std::fs::write(dir.join("k.bin"), &flipped).unwrap();
+        assert_eq!(load(&dir, "k.bin"), None, "a flipped bit");
+        std::fs::write(dir.join("k.bin"), &binary).unwrap();
+        assert_eq!(load(&dir, "k.bin"), None, "an unframed (older) file");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
