@@ -514,6 +514,19 @@ fn render(args: &RenderArgs) -> Result<u8> {
             output::write_bytes(&file, e.program.source.text.as_bytes())?;
         }
     }
+    // A program that could not be cached costs its build again next time: say so always.
+    let mut not_cached: Vec<&str> = Vec::new();
+    for e in renderer.estimators() {
+        if let CacheUse::NotStored(why) = &e.program.cache
+            && !args.verbose
+            && !not_cached.contains(&why.as_str())
+        {
+            not_cached.push(why);
+            eprintln!(
+                "warning: the built program was not cached ({why}); the next run builds it again"
+            );
+        }
+    }
     if args.verbose {
         for e in renderer.estimators() {
             let program = &e.program;

@@ -163,3 +163,37 @@ fn a_cut_cached_program_is_rebuilt_and_replaced() {
     assert!(stderr.contains("loaded from the cache"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A program cache that cannot be written is a warning without -v (once), not silence; the
+/// render goes on.
+#[test]
+fn an_unwritable_program_cache_is_a_warning() {
+    let dir = scratch("unwritable");
+    let file = dir.join("a-file");
+    std::fs::write(&file, b"not a folder").unwrap();
+    let out = dir.join("x.pfm");
+    let r = clpt(&[
+        "render",
+        "--width",
+        "4",
+        "--height",
+        "4",
+        "--spp",
+        "8",
+        "-q",
+        "--cache-dir",
+        file.join("programs").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success() && out.exists(), "{stderr}");
+    assert_eq!(
+        stderr
+            .matches("warning: the built program was not cached")
+            .count(),
+        1,
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -374,7 +374,7 @@ pub fn build(
                 {
                     match super::cache::store(dir, key, &b[0]) {
                         Ok(()) => CacheUse::Stored(dir.join(key)),
-                        Err(e) => CacheUse::NotStored(format!("{}: {e}", dir.display())),
+                        Err(e) => CacheUse::NotStored(e.to_string()),
                     }
                 }
                 _ => CacheUse::NotStored("the driver gave no program binary".into()),
