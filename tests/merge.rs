@@ -76,16 +76,12 @@ fn shards_merge_to_the_film_of_one_render() {
     assert_eq!(meta.samples, (0, total));
     assert_eq!(meta.seconds, 3.0);
     let (m, w) = (merged.film(total), whole.film(total));
-    for (a, b) in m.sum.iter().zip(&w.sum) {
-        for c in 0..3 {
-            assert!(
-                (a[c] - b[c]).abs() <= 1e-6 * b[c].abs(),
-                "merged sum {} against one render's {}",
-                a[c],
-                b[c]
-            );
-        }
-    }
+    common::assert_close(
+        m.sum.iter().flat_map(|p| &p[..3]),
+        w.sum.iter().flat_map(|p| &p[..3]),
+        1e-6,
+        "merged sums against one render's",
+    );
     // The host's estimate of the merged film is the kernel's of one render (f32 sums there).
     let merged_relmse = merged.estimated_error(total).relmse;
     assert!(

@@ -45,16 +45,12 @@ fn two_devices_render_the_image_of_one() {
     assert_eq!(seen.last(), Some(&200), "{seen:?}");
     assert_eq!(two.shares.iter().map(|s| s.samples).sum::<u32>(), 200);
     let (a, b) = (two.film.film(200), single.film(200));
-    for (x, y) in a.sum.iter().zip(&b.sum) {
-        for c in 0..3 {
-            assert!(
-                (x[c] - y[c]).abs() <= 1e-6 * y[c].abs(),
-                "{} against {}",
-                x[c],
-                y[c]
-            );
-        }
-    }
+    common::assert_close(
+        a.sum.iter().flat_map(|p| &p[..3]),
+        b.sum.iter().flat_map(|p| &p[..3]),
+        1e-6,
+        "the image of several devices against one",
+    );
     let relmse = two.film.estimated_error(200).relmse;
     assert!(
         (relmse / single_relmse - 1.0).abs() < 1e-4,
@@ -87,14 +83,10 @@ fn the_trial_runs_once_and_every_chunk_runs_its_choice() {
     let mut one = Renderer::new(&device, &scene(), &KernelSources::Embedded, fixed).unwrap();
     one.render(&mut |_| {}).unwrap();
     let (a, b) = (two.film.film(256), one.film_state().unwrap().film(256));
-    for (x, y) in a.sum.iter().zip(&b.sum) {
-        for c in 0..3 {
-            assert!(
-                (x[c] - y[c]).abs() <= 1e-6 * y[c].abs(),
-                "{} against {}",
-                x[c],
-                y[c]
-            );
-        }
-    }
+    common::assert_close(
+        a.sum.iter().flat_map(|p| &p[..3]),
+        b.sum.iter().flat_map(|p| &p[..3]),
+        1e-6,
+        "the image of several devices against one",
+    );
 }

@@ -5,6 +5,8 @@
 //! elsewhere, with no cluster, the test says so and passes, except under CI, where a missing
 //! cluster fails it.
 
+mod common;
+
 use clpt::render::metrics::LinearImage;
 use std::path::Path;
 use std::process::Command;
@@ -105,15 +107,11 @@ fn a_four_shard_render_and_its_merge_on_slurm_give_one_render_s_image() {
         LinearImage::read(&merged).unwrap(),
         LinearImage::read(&single).unwrap(),
     );
-    for (x, y) in a.rgb.iter().zip(&b.rgb) {
-        for c in 0..3 {
-            assert!(
-                (x[c] - y[c]).abs() <= 1e-6 * y[c].abs(),
-                "{} against {}",
-                x[c],
-                y[c]
-            );
-        }
-    }
+    common::assert_close(
+        a.rgb.iter().flat_map(|p| &p[..3]),
+        b.rgb.iter().flat_map(|p| &p[..3]),
+        1e-6,
+        "the merged image against one render's",
+    );
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -49,15 +49,15 @@ pub fn read_for_resume(
     let strategy = meta
         .strategy()
         .ok_or_else(|| refuse(format!("its options `{}` name no strategy", meta.options)))?;
-    match options.light_sampling {
-        LightSampling::On | LightSampling::Off
-            if (options.light_sampling == LightSampling::On) != strategy.light_sampling =>
-        {
-            return Err(refuse(format!(
-                "it was rendered with {strategy}, and --light-sampling asks otherwise"
-            )));
-        }
-        _ => {}
+    let pinned = match options.light_sampling {
+        LightSampling::On => Some(true),
+        LightSampling::Off => Some(false),
+        LightSampling::Auto => None,
+    };
+    if pinned.is_some_and(|on| on != strategy.light_sampling) {
+        return Err(refuse(format!(
+            "it was rendered with {strategy}, and --light-sampling asks otherwise"
+        )));
     }
     if let Roulette::Threshold(t) = options.roulette
         && t != strategy.rr_threshold

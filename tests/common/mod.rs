@@ -418,3 +418,20 @@ pub fn image_mean(film: &clpt::render::film::Film) -> ([f64; 3], [f64; 3]) {
     let n = f64::from(film.width * film.height);
     (mean.map(|m| m / n), var.map(|v| v / (n * n)))
 }
+
+/// Asserts that every value of `a` lies within `relative` of the value of `b` at its place:
+/// two renders of the same samples that may differ only by the rounding of their compensated
+/// sums (about 1e-7; merge, several devices, Slurm).
+pub fn assert_close<'a>(
+    a: impl IntoIterator<Item = &'a f32>,
+    b: impl IntoIterator<Item = &'a f32>,
+    relative: f32,
+    what: &str,
+) {
+    for (i, (x, y)) in a.into_iter().zip(b).enumerate() {
+        assert!(
+            (x - y).abs() <= relative * y.abs(),
+            "{what}: value {i} is {x}, against {y}"
+        );
+    }
+}
