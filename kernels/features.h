@@ -17,6 +17,8 @@
  *   CLPT_TEXTURES     texture maps of any kind (texture.h, texture coordinates, bump frames)
  *   CLPT_THIN_LENS    depth of field (the camera's lens sampling); 0: a pinhole
  *   CLPT_NEE          next-event estimation with MIS (nee.h); 0: pure path tracing
+ *   CLPT_REGENERATE   a lane starts its next sample while others still trace, by warp vote
+ *                     (pathtracer.cl render_pass; NVIDIA's inline PTX): set for NVIDIA GPUs
  */
 #ifndef CLPT_FEATURES_H
 #define CLPT_FEATURES_H
@@ -50,6 +52,9 @@
 #endif
 #ifndef CLPT_NEE
 #define CLPT_NEE 1
+#endif
+#ifndef CLPT_REGENERATE
+#define CLPT_REGENERATE 0
 #endif
 
 #endif

@@ -57,6 +57,10 @@ inline float diffuse_pdf(float3 wi, float3 facing, float3 facing_g) {
     return (fmax(0.0f, dot(wi, facing)) + fmax(0.0f, dot(mirrored, facing))) * M_1_PI_F;
 }
 
+#if CLPT_NEE
+/* The density and value of a given direction are needed only where light sampling weighs its
+ * own samples (nee.h) and by the probes; a program without light sampling leaves them out. */
+
 /* The solid-angle density with which bsdf_sample returns wi for a path arriving from wo: 0 for
  * a delta lobe (no density; bsdf_sample reports the lobe's probability instead). */
 inline float bsdf_pdf(uint type, float3 wo, float3 wi, float3 n, float3 ns) {
@@ -73,6 +77,7 @@ inline float bsdf_pdf(uint type, float3 wo, float3 wi, float3 n, float3 ns) {
 inline float3 bsdf_eval(uint type, float3 color, float3 wo, float3 wi, float3 n, float3 ns) {
     return bsdf_is_delta(type) ? (float3)(0.0f) : color * bsdf_pdf(type, wo, wi, n, ns);
 }
+#endif
 
 /* Samples wi for a path arriving from wo at a surface of `type`; returns the throughput weight
  * f cos / pdf, sets *pdf to bsdf_pdf(wi) (for a delta lobe: the probability of the lobe taken,

@@ -72,87 +72,111 @@ inline SurfaceMaterial material_at(const Scene* sc, Hit hit, Surface s) {
     return sm;
 }
 
-/* One path sample: radiance arriving through pixel (px, py) for sample index `sample`. */
-inline float3 trace_path(const Scene* sc, uint px, uint py, uint sample) {
+/* One path in flight: what the next bounce needs. A path is started by path_start and advanced
+ * one vertex at a time by path_bounce, so render_pass can start a lane's next sample the moment
+ * its path ends (see there for why). */
+typedef struct Path {
+    Rng rng;
+    float3 o, d, radiance, throughput; /* the ray to trace next; the sums so far */
+    uint depth;
+#if CLPT_NEE
+    bool sampled_light; /* the previous vertex sampled a light too (nee.h) */
+    float3 prev_p;
+    float prev_pdf;
+#endif
+} Path;
+
+/* The path of sample index `sample` through pixel (px, py): its random numbers and camera ray. */
+inline Path path_start(const Scene* sc, uint px, uint py, uint sample) {
     __global const RenderParams* params = sc->params;
-    const uint pixel = py * params->camera.width + px;
-    Rng rng = rng_for_path(params->seed_lo, params->seed_hi, pixel, sample);
-    float3 o, d;
-    camera_ray(&params->camera, px, py, rng_next4(&rng), &o, &d);
+    Path p;
+    p.rng = rng_for_path(params->seed_lo, params->seed_hi, py * params->camera.width + px, sample);
+    camera_ray(&params->camera, px, py, rng_next4(&p.rng), &p.o, &p.d);
+    p.radiance = (float3)(0.0f);
+    p.throughput = (float3)(1.0f);
+    p.depth = 0u;
+#if CLPT_NEE
+    p.sampled_light = false;
+    p.prev_p = (float3)(0.0f);
+    p.prev_pdf = 0.0f;
+#endif
+    return p;
+}
 
-    float3 radiance = (float3)(0.0f);
-    float3 throughput = (float3)(1.0f);
-#if CLPT_NEE
-    bool sampled_light = false; /* the previous vertex sampled a light too (nee.h) */
-    float3 prev_p = (float3)(0.0f);
-    float prev_pdf = 0.0f;
-#endif
-    for (uint depth = 0u; depth < params->max_depth; ++depth) {
-        const Hit hit = scene_intersect(sc, o, d);
-        if (hit.kind == HIT_NONE) {
-            break; /* the background is black */
-        }
-        const Surface s = scene_surface(sc, hit, o, d);
-        const SurfaceMaterial sm = material_at(sc, hit, s);
-#if CLPT_NEE
-        if (any(sm.emission != (float3)(0.0f))) {
-            const float w_emission =
-                sampled_light ? emission_weight(sc, hit, s, prev_p, prev_pdf, d) : 1.0f;
-            radiance += throughput * sm.emission * w_emission;
-        }
-#else
-        radiance += throughput * sm.emission;
-#endif
-
-        const float4 u = rng_next4(&rng);
-#if CLPT_NEE
-        /* Light sampling at every vertex but a delta lobe's, bent shading normals (bump maps,
-         * smooth meshes) included: nee.h joins the light's trio to material.h's. */
-        sampled_light = !bsdf_is_delta(sm.type) && params->num_lights > 0u;
-        if (sampled_light) {
-            radiance += throughput * sample_light(sc, s, sm.type, sm.color, -d,
-                                                  sm.shading_normal, rng_next4(&rng));
-        }
-#endif
-        float3 wi;
-        float pdf;
-        bool is_delta;
-        throughput *= bsdf_sample(sm.type, sm.color, -d, s.n, sm.shading_normal, u, &wi, &pdf,
-                                  &is_delta);
-#if CLPT_NEE
-        if (sampled_light) {
-            /* The density with which this vertex found wi: the next hit's MIS weight. */
-            prev_p = s.p;
-            prev_pdf = pdf;
-        }
-#endif
-
-        /* Russian roulette as the lower edge of a weight window (Vorba and Krivanek 2016,
-         * "Adjoint-driven Russian roulette and splitting", without the splitting): from bounce
-         * rr_depth on, a path whose largest throughput component m is below rr_threshold
-         * survives with probability m / rr_threshold and then carries rr_threshold, so no
-         * survivor's weight grows past the window. rr_threshold 1 is pbrt-v4's throughput
-         * roulette (section 14.1.5); lower thresholds let bright paths run on (the host picks
-         * it by measured efficiency, render/strategy.rs). Survival is capped at 0.95, as
-         * Mitsuba 3 does, so every path past rr_depth ends with probability >= 0.05 a bounce:
-         * even a closed room of albedo 1 (the original's untextured defaults) has paths of at
-         * most rr_depth + 20 bounces on average. A zero (or non-finite) throughput ends the
-         * path at once. The 1/survive weight keeps the estimate unbiased. */
-        const float m = max_component(throughput);
-        if (!(m > 0.0f)) {
-            break;
-        }
-        if (depth + 1u >= params->rr_depth) {
-            const float survive = fmin(RR_MAX_SURVIVAL, m / params->rr_threshold);
-            if (!(u.w < survive)) {
-                break;
-            }
-            throughput /= survive;
-        }
-        o = offset_ray_origin(s.p, s.p_error, s.n, wi);
-        d = wi;
+/* One vertex of path p: traces its ray, adds the emission found there (and, with light
+ * sampling, a light sample), scatters, and plays roulette. Returns whether the path goes on;
+ * when it does not, p->radiance is the sample's value. */
+inline bool path_bounce(const Scene* sc, Path* p) {
+    __global const RenderParams* params = sc->params;
+    if (p->depth >= params->max_depth) {
+        return false;
     }
-    return radiance;
+    const float3 d = p->d; /* the ray's direction; p->d becomes the next one */
+    const Hit hit = scene_intersect(sc, p->o, d);
+    if (hit.kind == HIT_NONE) {
+        return false; /* the background is black */
+    }
+    const Surface s = scene_surface(sc, hit, p->o, d);
+    const SurfaceMaterial sm = material_at(sc, hit, s);
+#if CLPT_NEE
+    if (any(sm.emission != (float3)(0.0f))) {
+        const float w_emission =
+            p->sampled_light ? emission_weight(sc, hit, s, p->prev_p, p->prev_pdf, d) : 1.0f;
+        p->radiance += p->throughput * sm.emission * w_emission;
+    }
+#else
+    p->radiance += p->throughput * sm.emission;
+#endif
+
+    const float4 u = rng_next4(&p->rng);
+#if CLPT_NEE
+    /* Light sampling at every vertex but a delta lobe's, bent shading normals (bump maps,
+     * smooth meshes) included: nee.h joins the light's trio to material.h's. */
+    p->sampled_light = !bsdf_is_delta(sm.type) && params->num_lights > 0u;
+    if (p->sampled_light) {
+        p->radiance += p->throughput * sample_light(sc, s, sm.type, sm.color, -d,
+                                                    sm.shading_normal, rng_next4(&p->rng));
+    }
+#endif
+    float3 wi;
+    float pdf;
+    bool is_delta;
+    p->throughput *= bsdf_sample(sm.type, sm.color, -d, s.n, sm.shading_normal, u, &wi, &pdf,
+                                 &is_delta);
+#if CLPT_NEE
+    if (p->sampled_light) {
+        /* The density with which this vertex found wi: the next hit's MIS weight. */
+        p->prev_p = s.p;
+        p->prev_pdf = pdf;
+    }
+#endif
+
+    /* Russian roulette as the lower edge of a weight window (Vorba and Krivanek 2016,
+     * "Adjoint-driven Russian roulette and splitting", without the splitting): from bounce
+     * rr_depth on, a path whose largest throughput component m is below rr_threshold
+     * survives with probability m / rr_threshold and then carries rr_threshold, so no
+     * survivor's weight grows past the window. rr_threshold 1 is pbrt-v4's throughput
+     * roulette (section 14.1.5); lower thresholds let bright paths run on (the host picks
+     * it by measured efficiency, render/strategy.rs). Survival is capped at 0.95, as
+     * Mitsuba 3 does, so every path past rr_depth ends with probability >= 0.05 a bounce:
+     * even a closed room of albedo 1 (the original's untextured defaults) has paths of at
+     * most rr_depth + 20 bounces on average. A zero (or non-finite) throughput ends the
+     * path at once. The 1/survive weight keeps the estimate unbiased. */
+    const float m = max_component(p->throughput);
+    if (!(m > 0.0f)) {
+        return false;
+    }
+    p->depth += 1u;
+    if (p->depth >= params->rr_depth) {
+        const float survive = fmin(RR_MAX_SURVIVAL, m / params->rr_threshold);
+        if (!(u.w < survive)) {
+            return false;
+        }
+        p->throughput /= survive;
+    }
+    p->o = offset_ray_origin(s.p, s.p_error, s.n, wi);
+    p->d = wi;
+    return true;
 }
 
 /* Adds x to the double-float hi + lo (|lo| at most half an ulp of hi): Knuth's TwoSum gives
@@ -170,6 +194,38 @@ inline void add_compensated(float4* hi, float4* lo, float4 x) {
     *lo = e - (t - s);
     *hi = t;
 }
+
+/* Adds sample `sample` of value l to a pixel's running sums (render_pass): its value
+ * (compensated), its square, and, for odd-numbered groups of four, the odd half. A value that
+ * is not finite is not added: it is counted, and the first such sample index kept. */
+inline void film_add(float3 l, uint sample, float4* acc, float4* acc_lo, float4* acc_sq,
+                     float4* acc_odd, float4* acc_odd_lo, uint* bad_count, uint* first) {
+    if (!(isfinite(l.x) && isfinite(l.y) && isfinite(l.z))) {
+        *first = *bad_count == 0u ? sample : *first;
+        *bad_count += 1u;
+        return;
+    }
+    add_compensated(acc, acc_lo, (float4)(l, 0.0f));
+    *acc_sq += (float4)(l * l, 0.0f);
+    if ((sample >> 2) & 1u) {
+        add_compensated(acc_odd, acc_odd_lo, (float4)(l, 0.0f));
+    }
+}
+
+#if CLPT_REGENERATE
+/* Whether at least half of the warp's lanes that are running now say `p` (PTX activemask and
+ * vote.sync.ballot: NVIDIA only, hence the switch). Lanes that have left the loop are not
+ * counted, so the last lanes of a launch still restart. */
+inline bool warp_vote_half(bool p) {
+    uint active, votes;
+    asm volatile("activemask.b32 %0;" : "=r"(active));
+    asm volatile("{\n\t.reg .pred q;\n\tsetp.ne.u32 q, %1, 0;\n\t"
+                 "vote.sync.ballot.b32 %0, q, %2;\n\t}"
+                 : "=r"(votes)
+                 : "r"((uint)p), "r"(active));
+    return 2u * popcount(votes) >= popcount(active);
+}
+#endif
 
 /* Accumulates sample_count samples from sample_start into every pixel of rows row_start,
  * row_start + row_step, ... (row_count of them; row_step > 1 only for the strategy trial of
@@ -196,20 +252,49 @@ __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum, __global floa
     float4 acc_sq = sum_sq[pixel];
     float4 acc_odd = sum_odd[pixel], acc_odd_lo = sum_odd_lo[pixel];
     uint bad_count = 0u, first = 0xffffffffu;
-    for (uint i = 0u; i < sample_count; ++i) {
-        const uint sample = sample_start + i;
-        const float3 l = trace_path(&scene, px, py, sample);
-        if (!(isfinite(l.x) && isfinite(l.y) && isfinite(l.z))) {
-            first = bad_count == 0u ? sample : first;
-            ++bad_count;
-            continue;
+#if CLPT_REGENERATE
+    /* Path regeneration (Novak, Havran and Dachsbacher, "Path regeneration for interactive path
+     * tracing", Eurographics 2010): one loop over bounces, in which a lane whose path has ended
+     * starts its next sample while the others trace on, instead of idling until the longest
+     * path of its warp has ended. Roulette makes path lengths vary widely (a warp of 32 waits
+     * for the longest of 32), so nested loops left most lanes idle. Starting a path costs
+     * several bounces' worth of code (rng_for_path's Sobol blocks), and the warp runs it
+     * whenever any lane starts, so a lane that has ended waits until half the warp's active
+     * lanes have (warp_vote_half): measured on the H200 against nested loops, 1.03 to 1.68
+     * times the speed on the showcases and the project's scenes, 0.94 on case1; restarting at
+     * once lost up to 2x on the small rooms, waiting for 3/4 or 7/8 of the warp was slower
+     * everywhere (BENCHMARKS.md, "Path regeneration"). Each pixel still adds its samples in
+     * index order with the same code, so the image does not depend on the schedule. */
+    uint i = 0u;
+    bool ended = false;
+    Path path;
+    if (sample_count > 0u) {
+        path = path_start(&scene, px, py, sample_start);
+    }
+    while (i < sample_count) {
+        if (!ended && !path_bounce(&scene, &path)) {
+            ended = true;
+            film_add(path.radiance, sample_start + i, &acc, &acc_lo, &acc_sq, &acc_odd,
+                     &acc_odd_lo, &bad_count, &first);
+            if (++i == sample_count) {
+                break;
+            }
         }
-        add_compensated(&acc, &acc_lo, (float4)(l, 0.0f));
-        acc_sq += (float4)(l * l, 0.0f);
-        if ((sample >> 2) & 1u) {
-            add_compensated(&acc_odd, &acc_odd_lo, (float4)(l, 0.0f));
+        if (warp_vote_half(ended) && ended) {
+            path = path_start(&scene, px, py, sample_start + i);
+            ended = false;
         }
     }
+#else
+    /* A CPU runs each work-item's loop alone: nothing idles while another path runs on. */
+    for (uint i = 0u; i < sample_count; ++i) {
+        Path path = path_start(&scene, px, py, sample_start + i);
+        while (path_bounce(&scene, &path)) {
+        }
+        film_add(path.radiance, sample_start + i, &acc, &acc_lo, &acc_sq, &acc_odd, &acc_odd_lo,
+                 &bad_count, &first);
+    }
+#endif
     sum[pixel] = acc;
     sum_lo[pixel] = acc_lo;
     sum_sq[pixel] = acc_sq;

@@ -190,6 +190,51 @@ fn a_sphere_only_program_carries_no_other_code() {
     assert_eq!(built.cache, CacheUse::Off);
 }
 
+/// Path regeneration's warp vote is NVIDIA's inline PTX: only NVIDIA GPUs get the switch, and
+/// only a program built with it carries the vote.
+#[test]
+fn only_nvidia_gpus_get_the_warp_vote() {
+    let description = |platform: &str, is_gpu: bool| clpt::device::DeviceDescription {
+        index: 0,
+        platform: platform.into(),
+        platform_version: String::new(),
+        name: String::new(),
+        kind: String::new(),
+        compute_units: 1,
+        global_mem_bytes: 0,
+        opencl_c_version: String::new(),
+        driver_version: String::new(),
+        is_gpu,
+    };
+    assert!(Features::regeneration_on(&description("NVIDIA CUDA", true)));
+    for (platform, is_gpu) in [
+        ("Portable Computing Language", false),
+        ("AMD Accelerated Parallel Processing", true),
+        ("Intel(R) OpenCL Graphics", true),
+        ("NVIDIA CUDA", false),
+    ] {
+        assert!(
+            !Features::regeneration_on(&description(platform, is_gpu)),
+            "{platform}, GPU {is_gpu}"
+        );
+    }
+    let scene = clpt::scene::builtin::scene().unwrap();
+    let mut features = Features::of(&scene, ObjectBvh::Auto);
+    assert!(
+        !features.regenerate,
+        "Features::of leaves it to the renderer"
+    );
+    for regenerate in [false, true] {
+        features.regenerate = regenerate;
+        let text = KernelSources::Embedded
+            .expand("pathtracer.cl", &features.defines())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .text;
+        assert_eq!(text.contains("vote.sync.ballot"), regenerate);
+        assert_eq!(text.contains("warp_vote_half("), regenerate);
+    }
+}
+
 #[test]
 fn switched_off_blocks_keep_line_numbers_true() {
     let dir = tempdir("lines");

@@ -3,7 +3,8 @@
 
 For each scene, each run's time to the relMSE that the previous `--no-nee` (the `before-off:1`
 row: light sampling off, roulette below 1, the binary of that time) reached at the same
-samples: relMSE x seconds over that relMSE. Columns: the defaults' choice and time, the
+samples: relMSE x seconds over that relMSE (a setting not run shows as a dash; the best fixed
+setting is the best of those run). Columns: the defaults' choice and time, the
 previous `--no-nee`'s time, the same setting with this binary (`off, 1`, what the sampler
 alone bought), the best fixed setting, and the ratios.
 
@@ -36,8 +37,9 @@ def main():
         chose = s["auto"]["estimator"].split(" (")[0]
         chose = chose.replace("light sampling ", "").replace("; roulette below ", ", ")
         fmt = lambda t: f"{t:.3g} s"
+        off_1 = fmt(to_target["off:1"]) if "off:1" in to_target else "—"
         print(f"| {scene} | {s['auto']['spp']} | {chose} | {fmt(to_target['auto'])} "
-              f"| {fmt(to_target['before-off:1'])} | {fmt(to_target['off:1'])} "
+              f"| {fmt(to_target['before-off:1'])} | {off_1} "
               f"| {best.replace(':', ', ')}: {fmt(fixed[best])} "
               f"| {to_target['before-off:1'] / to_target['auto']:.2f}x "
               f"| {100 * (to_target['auto'] / fixed[best] - 1):+.0f}% |")

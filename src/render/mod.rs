@@ -491,6 +491,7 @@ impl<'d> Renderer<'d> {
                 Features::of(scene, options.object_bvh)
             };
             features.nee = light_sampling;
+            features.regenerate = Features::regeneration_on(&device.description);
             let program = program::build_entry(
                 device,
                 sources,
