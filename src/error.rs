@@ -58,8 +58,16 @@ pub enum Error {
     #[error("OpenCL: {context}: {message}")]
     OpenCl { context: String, message: String },
 
-    #[error("no OpenCL device matches `{wanted}`; available:\n{available}")]
-    NoSuchDevice { wanted: String, available: String },
+    #[error(
+        "no OpenCL device matches `{wanted}` (from {from}: an index, or the start of a word \
+         of a device or platform name, 2 characters or more); available:\n{available}"
+    )]
+    NoSuchDevice {
+        wanted: String,
+        /// Where `wanted` came from: `--device` or `CLPT_DEVICE`.
+        from: &'static str,
+        available: String,
+    },
 
     #[error(
         "no OpenCL platform found. Install one (on Debian/Ubuntu: \

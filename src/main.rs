@@ -115,7 +115,8 @@ struct CompareArgs {
 
 #[derive(Args)]
 struct DeviceArgs {
-    /// Device: an index from `clpt devices` or part of its name [env: CLPT_DEVICE]
+    /// Device: an index from `clpt devices` or the start of a word of its name, 2 characters
+    /// or more [env: CLPT_DEVICE]
     /// [default: the first GPU, else the first device]; `render` also takes `all` or a list
     /// (`0,2`) to split the samples over several devices.
     #[arg(short, long)]

@@ -202,6 +202,7 @@ fn only_nvidia_gpus_get_the_warp_vote() {
         kind: String::new(),
         compute_units: 1,
         global_mem_bytes: 0,
+        max_alloc_bytes: 0,
         opencl_c_version: String::new(),
         driver_version: String::new(),
         is_gpu,

@@ -197,3 +197,56 @@ fn an_unwritable_program_cache_is_a_warning() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_film_larger_than_the_device_or_host_is_an_error_before_the_render() {
+    let dir = scratch("film");
+    let out = dir.join("x.png");
+    let started = std::time::Instant::now();
+    // 65536 x 65536 pixels need 352 GiB of device memory: refused before any texture, tree
+    // or sample (it once passed the size check and aborted reading the film back).
+    refused(
+        &clpt(&[
+            "render",
+            "--width",
+            "65536",
+            "--height",
+            "65536",
+            "--spp",
+            "1",
+            "-q",
+            "-o",
+            out.to_str().unwrap(),
+        ]),
+        "a 65536x65536 film needs 352.0 GiB",
+    );
+    assert!(started.elapsed().as_secs() < 30, "refused only after work");
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_device_name_says_where_it_came_from_and_is_no_stray_letter() {
+    let run = |env: Option<&str>, args: &[&str]| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_clpt"));
+        c.args(args).env_remove("CLPT_DEVICE");
+        if let Some(v) = env {
+            c.env("CLPT_DEVICE", v);
+        }
+        c.output().unwrap()
+    };
+    let render = [
+        "render", "--width", "4", "--height", "4", "--spp", "1", "-q", "-o",
+    ];
+    let out = std::env::temp_dir().join(format!("clpt-device-{}.pfm", std::process::id()));
+    let out = out.to_str().unwrap();
+    let mut args = render.to_vec();
+    args.push(out);
+    refused(&run(Some("no-such-device"), &args), "(from CLPT_DEVICE");
+    args.extend(["--device", "no-such-device"]);
+    refused(&run(None, &args), "(from --device");
+    // One letter names no device, even where it begins a word of one.
+    let mut args = render.to_vec();
+    args.extend([out, "--device", "p"]);
+    refused(&run(None, &args), "no OpenCL device matches `p`");
+}

@@ -16,6 +16,24 @@ use std::fmt;
 /// The environment variable that picks a device when `--device` is not given.
 pub const DEVICE_ENV: &str = "CLPT_DEVICE";
 
+/// Whether `wanted` names device `d`: it begins a word (a run of letters and digits) of the
+/// device's or the platform's name, ignoring case, and has at least two characters.
+pub fn names_device(wanted: &str, d: &DeviceDescription) -> bool {
+    let wanted = wanted.trim().to_lowercase();
+    wanted.chars().count() >= 2
+        && [&d.name, &d.platform].iter().any(|name| {
+            let name = name.to_lowercase();
+            name.char_indices().any(|(i, c)| {
+                c.is_alphanumeric()
+                    && name[..i]
+                        .chars()
+                        .next_back()
+                        .is_none_or(|p| !p.is_alphanumeric())
+                    && name[i..].starts_with(&wanted)
+            })
+        })
+}
+
 /// What `clpt devices` shows about one device.
 #[derive(Clone, Debug)]
 pub struct DeviceDescription {
@@ -28,6 +46,8 @@ pub struct DeviceDescription {
     pub kind: String,
     pub compute_units: u32,
     pub global_mem_bytes: u64,
+    /// The largest single buffer the device allocates (CL_DEVICE_MAX_MEM_ALLOC_SIZE).
+    pub max_alloc_bytes: u64,
     pub opencl_c_version: String,
     pub driver_version: String,
     pub is_gpu: bool,
@@ -82,6 +102,10 @@ fn describe(index: usize, platform: &ocl::Platform, device: &ocl::Device) -> Dev
         Ok(InfoResult::GlobalMemSize(n)) => n,
         _ => 0,
     };
+    let max_alloc_bytes = match device.info(Info::MaxMemAllocSize) {
+        Ok(InfoResult::MaxMemAllocSize(n)) => n,
+        _ => 0,
+    };
     DeviceDescription {
         index,
         platform: platform
@@ -92,6 +116,7 @@ fn describe(index: usize, platform: &ocl::Platform, device: &ocl::Device) -> Dev
         kind: kind.into(),
         compute_units,
         global_mem_bytes,
+        max_alloc_bytes,
         opencl_c_version: info_string(device, Info::OpenclCVersion),
         driver_version: info_string(device, Info::DriverVersion),
         is_gpu,
@@ -127,15 +152,21 @@ pub fn list() -> Result<Vec<(ocl::Platform, ocl::Device, DeviceDescription)>> {
     Ok(all)
 }
 
-/// Picks a device: `wanted` (or `$CLPT_DEVICE`) as an index into [`list`] or a case-insensitive
-/// substring of the device or platform name; by default the first GPU, else the first CPU,
-/// else the first device.
+/// Picks a device: `wanted` (or `$CLPT_DEVICE`) as an index into [`list`] or the start of a
+/// word of the device or platform name, case-insensitive, at least two characters (`nvidia`,
+/// `portable`, `xeon`; a lone `x` once picked a Xeon by a letter inside a word); by default the
+/// first GPU, else the first CPU, else the first device. An error says where the wanted name
+/// came from.
 pub fn select(wanted: Option<&str>) -> Result<Device> {
     let all = list()?;
     let env = std::env::var(DEVICE_ENV)
         .ok()
         .filter(|s| !s.trim().is_empty());
-    let wanted = wanted.map(str::to_string).or(env);
+    let (wanted, from) = match (wanted, env) {
+        (Some(w), _) => (Some(w.to_string()), "--device"),
+        (None, Some(e)) => (Some(e), DEVICE_ENV),
+        (None, None) => (None, ""),
+    };
     let chosen = match wanted.as_deref().map(str::trim) {
         None => all
             .iter()
@@ -144,22 +175,18 @@ pub fn select(wanted: Option<&str>) -> Result<Device> {
             .unwrap_or(0),
         Some(w) => match w.parse::<usize>() {
             Ok(i) if i < all.len() => i,
-            _ => {
-                let needle = w.to_lowercase();
-                all.iter()
-                    .position(|(_, _, d)| {
-                        d.name.to_lowercase().contains(&needle)
-                            || d.platform.to_lowercase().contains(&needle)
-                    })
-                    .ok_or_else(|| Error::NoSuchDevice {
-                        wanted: w.to_string(),
-                        available: all
-                            .iter()
-                            .map(|(_, _, d)| format!("  {d}"))
-                            .collect::<Vec<_>>()
-                            .join("\n"),
-                    })?
-            }
+            _ => all
+                .iter()
+                .position(|(_, _, d)| names_device(w, d))
+                .ok_or_else(|| Error::NoSuchDevice {
+                    wanted: w.to_string(),
+                    from,
+                    available: all
+                        .iter()
+                        .map(|(_, _, d)| format!("  {d}"))
+                        .collect::<Vec<_>>()
+                        .join("\n"),
+                })?,
         },
     };
     let (platform, device, description) = all.into_iter().nth(chosen).ok_or(Error::NoPlatform)?;
@@ -176,4 +203,39 @@ pub fn select(wanted: Option<&str>) -> Result<Device> {
         context,
         queue,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_device_is_named_by_the_start_of_a_word_of_two_characters_or_more() {
+        let d = DeviceDescription {
+            index: 0,
+            platform: "Portable Computing Language".into(),
+            platform_version: String::new(),
+            name: "pthread-skylake-avx512-Intel(R) Xeon(R) Gold".into(),
+            kind: "CPU".into(),
+            compute_units: 2,
+            global_mem_bytes: 0,
+            max_alloc_bytes: 0,
+            opencl_c_version: String::new(),
+            driver_version: String::new(),
+            is_gpu: false,
+        };
+        for yes in [
+            "xeon",
+            "XE",
+            "portable",
+            " Portable Computing ",
+            "avx512",
+            "pthread-sky",
+        ] {
+            assert!(names_device(yes, &d), "{yes}");
+        }
+        for no in ["x", "p", "", "eon", "512", "thread", "nvidia", "gold!"] {
+            assert!(!names_device(no, &d), "{no}");
+        }
+    }
 }

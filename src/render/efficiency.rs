@@ -106,10 +106,18 @@ pub fn read_report(path: &Path) -> Result<Vec<PassReport>> {
             if fields.len() != columns {
                 return Err(bad(n, &format!("expected {columns} fields")));
             }
+            // A non-finite value has no place on a log-log plot (it once made the axes span
+            // 2^31 decades): an error naming it, never a silent skip.
             let num = |i: usize| -> Result<f64> {
-                fields[i]
-                    .parse::<f64>()
-                    .map_err(|_| bad(n, &format!("`{}` is not a number", fields[i])))
+                let name = CSV_HEADER.split(',').nth(i).unwrap_or("a column");
+                match fields[i].parse::<f64>() {
+                    Ok(v) if v.is_finite() => Ok(v),
+                    Ok(_) => Err(bad(
+                        n,
+                        &format!("{name} is `{}`, not a finite number", fields[i]),
+                    )),
+                    Err(_) => Err(bad(n, &format!("{name} `{}` is not a number", fields[i]))),
+                }
             };
             let measured = if fields[6].is_empty() {
                 None
@@ -231,6 +239,20 @@ mod tests {
         std::fs::write(&path, "pass,seconds,spp,\n1,x,3,4,5,6,,,\n").unwrap();
         let err = read_report(&path).unwrap_err().to_string();
         assert!(err.contains(":2:") && err.contains("`x`"), "{err}");
+        // Infinite or NaN values are errors that name the column: an `inf` once made `plot`
+        // loop over 2^31 decades of axis.
+        for value in ["inf", "-inf", "NaN"] {
+            std::fs::write(
+                &path,
+                format!("pass,seconds,spp,\n1,0.5,8,16,1e-2,{value},,,\n"),
+            )
+            .unwrap();
+            let err = read_report(&path).unwrap_err().to_string();
+            assert!(
+                err.contains(":2:") && err.contains("relmse_estimate") && err.contains(value),
+                "{err}"
+            );
+        }
         std::fs::remove_file(&path).ok();
     }
 }

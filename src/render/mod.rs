@@ -13,6 +13,7 @@ pub mod efficiency;
 pub mod features;
 pub mod film;
 pub mod film_file;
+pub mod memory;
 pub mod merge;
 pub mod metrics;
 pub mod multi;
@@ -441,6 +442,12 @@ impl<'d> Renderer<'d> {
                 options.first_sample
             )));
         }
+        memory::check_film_fits(
+            &device.description,
+            scene.camera.width,
+            scene.camera.height,
+            memory::host_available_bytes(),
+        )?;
         let packed = PackedScene::new(scene, options.max_texture_pixels)?;
         let filter = match options.texture_filter {
             TextureFilter::Bilinear => layout::FILTER_BILINEAR,

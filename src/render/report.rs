@@ -58,18 +58,20 @@ pub fn write_report(path: &Path, rows: &[PassReport], choice: &Choice) -> Result
                     let m = r.measured.map_or(String::new(), |m| {
                         format!(
                             ", \"rmse\": {}, \"relmse\": {}, \"mae\": {}",
-                            m.rmse, m.relmse, m.mae
+                            json_number(m.rmse),
+                            json_number(m.relmse),
+                            json_number(m.mae)
                         )
                     });
                     format!(
                         "    {{\"pass\": {}, \"seconds\": {}, \"spp\": {}, \"spp_per_second\": {}, \
                          \"rmse_estimate\": {}, \"relmse_estimate\": {}{m}}}",
                         r.pass,
-                        r.seconds,
+                        json_number(r.seconds),
                         r.spp,
-                        r.spp_per_second,
-                        r.estimate.rmse,
-                        r.estimate.relmse
+                        json_number(r.spp_per_second),
+                        json_number(r.estimate.rmse),
+                        json_number(r.estimate.relmse)
                     )
                 })
                 .collect();
@@ -258,7 +260,9 @@ impl Plot {
         let points = series
             .iter()
             .flat_map(|s| &s.points)
-            .filter(|p| p.0 > 0.0 && p.1 > 0.0);
+            // Only points a log axis can place: an infinite one made the axes span 2^31
+            // decades, drawn one by one.
+            .filter(|p| p.0 > 0.0 && p.1 > 0.0 && p.0.is_finite() && p.1.is_finite());
         let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
         for &(x, y) in points {
             x0 = x0.min(x.log10());
@@ -452,4 +456,26 @@ fn escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn infinite_points_do_not_stretch_the_axes() {
+        let series = Series {
+            label: "run".into(),
+            points: vec![
+                (0.5, 1e-2),
+                (1.0, f64::INFINITY),
+                (f64::INFINITY, 1e-3),
+                (2.0, 1e-3),
+            ],
+            colour: [0, 0, 0],
+            dashed: false,
+        };
+        let plot = Plot::new(&[series]);
+        assert_eq!((plot.x_decades, plot.y_decades), ((-1, 1), (-3, -2)));
+    }
 }

@@ -1,0 +1,141 @@
+//! Whether a film fits before it is allocated: on the device (every buffer of
+//! `render_pass`) and on the host (what reading it back and writing the image take). A film
+//! too large for either was allocated lazily and then aborted the process after the whole
+//! render, while reading it back; now it is an error before any work, with the figures.
+
+use crate::device::DeviceDescription;
+use crate::error::{Error, Result};
+
+/// Device bytes a pixel holds: five float4 sums (value and its compensation, squares, the
+/// odd half and its compensation) and two u32 counters (kernels/pathtracer.cl `render_pass`).
+pub const DEVICE_BYTES_PER_PIXEL: u64 = 5 * 16 + 2 * 4;
+
+/// The largest single device buffer a film needs, a pixel's float4 sum.
+const LARGEST_BUFFER_BYTES_PER_PIXEL: u64 = 16;
+
+/// Host bytes a pixel needs at the peak of reading the film back and writing outputs: the
+/// device's buffers read back (88), one of them twice while it is converted (16), the mean
+/// image and its squares (32) and an output image in f32 (12), rounded up.
+pub const HOST_BYTES_PER_PIXEL: u64 = 160;
+
+/// Checks a `width` x `height` film against `device` and, where the system says,
+/// `host_available` bytes of host memory.
+pub fn check_film_fits(
+    device: &DeviceDescription,
+    width: u32,
+    height: u32,
+    host_available: Option<u64>,
+) -> Result<()> {
+    let pixels = u64::from(width) * u64::from(height);
+    let too_large = |need: u64, what: &str, have: u64| {
+        Error::Invalid(format!(
+            "a {width}x{height} film needs {} {what}, more than the {} {} has; \
+             render fewer pixels (--width, --height)",
+            gib(need),
+            gib(have),
+            if what.contains("host") {
+                "this machine".to_string()
+            } else {
+                device.name.clone()
+            }
+        ))
+    };
+    let device_bytes = pixels * DEVICE_BYTES_PER_PIXEL;
+    if device.global_mem_bytes > 0 && device_bytes > device.global_mem_bytes {
+        return Err(too_large(
+            device_bytes,
+            "of device memory",
+            device.global_mem_bytes,
+        ));
+    }
+    let buffer_bytes = pixels * LARGEST_BUFFER_BYTES_PER_PIXEL;
+    if device.max_alloc_bytes > 0 && buffer_bytes > device.max_alloc_bytes {
+        return Err(too_large(
+            buffer_bytes,
+            "in one device buffer",
+            device.max_alloc_bytes,
+        ));
+    }
+    let host_bytes = pixels * HOST_BYTES_PER_PIXEL;
+    match host_available {
+        Some(have) if host_bytes > have => Err(too_large(host_bytes, "of host memory", have)),
+        _ => Ok(()),
+    }
+}
+
+/// The host memory available now (Linux: MemAvailable of /proc/meminfo), if the system says.
+pub fn host_available_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    kib.checked_mul(1024)
+}
+
+fn gib(bytes: u64) -> String {
+    format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn device(global: u64, max_alloc: u64) -> DeviceDescription {
+        DeviceDescription {
+            index: 0,
+            platform: "p".into(),
+            platform_version: String::new(),
+            name: "the test device".into(),
+            kind: "CPU".into(),
+            compute_units: 1,
+            global_mem_bytes: global,
+            max_alloc_bytes: max_alloc,
+            opencl_c_version: String::new(),
+            driver_version: String::new(),
+            is_gpu: false,
+        }
+    }
+
+    #[test]
+    fn films_that_do_not_fit_are_errors_with_the_figures() {
+        let gib4 = 4u64 << 30;
+        let d = device(gib4, 1 << 30);
+        assert!(check_film_fits(&d, 1920, 1080, Some(gib4)).is_ok());
+        // 16384 x 8192 needs 11 GiB of a 4 GiB device.
+        let err = check_film_fits(&d, 16384, 8192, None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("16384x8192") && err.contains("11.0 GiB") && err.contains("4.0 GiB"),
+            "{err}"
+        );
+        assert!(
+            err.contains("the test device") && err.contains("--width"),
+            "{err}"
+        );
+        // Fits the device's memory but not its largest buffer (a 2 GiB sum, 1 GiB at most).
+        let err = check_film_fits(&device(64 << 30, 1 << 30), 16384, 8192, None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("one device buffer") && err.contains("2.0 GiB"),
+            "{err}"
+        );
+        // Fits the device, not the host.
+        let err = check_film_fits(&device(64 << 30, 0), 16384, 8192, Some(gib4))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("host memory") && err.contains("this machine"),
+            "{err}"
+        );
+        // A device that reports nothing is not refused on its account.
+        assert!(check_film_fits(&device(0, 0), 65536, 65536, None).is_ok());
+    }
+
+    #[test]
+    fn this_machine_reports_its_memory() {
+        if cfg!(target_os = "linux") {
+            assert!(host_available_bytes().is_some_and(|b| b > 0));
+        }
+    }
+}
