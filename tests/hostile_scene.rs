@@ -21,9 +21,9 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// Renders `scene` (8x8, one sample) and returns the run and how long it took.
-fn render(scene: &Path, extra: &[&str]) -> (Output, Duration) {
-    let out = scene.with_extension("pfm");
+/// Renders `scene` (8x8, one sample) to `dir`, and returns the run and how long it took.
+fn render(scene: &Path, dir: &Path, extra: &[&str]) -> (Output, Duration) {
+    let out = dir.join("out.pfm");
     let mut args = vec![
         "render",
         scene.to_str().unwrap(),
@@ -69,7 +69,7 @@ fn endless_and_huge_scenes_end_at_the_size_limit() {
     let dir = scratch("size");
     let limit = "larger than the limit of 67108864 bytes (64.0 MiB); a larger file can be read \
                  with --max-scene-bytes N";
-    let (run, took) = render(Path::new("/dev/zero"), &[]);
+    let (run, took) = render(Path::new("/dev/zero"), &dir, &[]);
     refused_with(&run, &format!("scene /dev/zero: {limit}"));
     assert!(took < Duration::from_secs(30), "took {took:?}");
     // A sparse 1 GiB file of NULs: its size is real, its pages are not.
@@ -78,11 +78,11 @@ fn endless_and_huge_scenes_end_at_the_size_limit() {
         .unwrap()
         .set_len(1 << 30)
         .unwrap();
-    let (run, _) = render(&nuls, &[]);
+    let (run, _) = render(&nuls, &dir, &[]);
     refused_with(&run, &format!("{}: {limit}", nuls.display()));
     // Under the limit, NULs are a token quoted short.
     std::fs::write(&nuls, vec![0u8; 1 << 20]).unwrap();
-    let (run, _) = render(&nuls, &[]);
+    let (run, _) = render(&nuls, &dir, &[]);
     refused_with(
         &run,
         &format!(
@@ -98,7 +98,7 @@ fn endless_and_huge_scenes_end_at_the_size_limit() {
     );
     // The limit can be moved either way.
     let scene = with_group(&dir, "small.txt", "Sphere { center 0 0 -5 radius 1 }");
-    let (run, _) = render(&scene, &["--max-scene-bytes", "100"]);
+    let (run, _) = render(&scene, &dir, &["--max-scene-bytes", "100"]);
     refused_with(
         &run,
         &format!(
@@ -107,7 +107,7 @@ fn endless_and_huge_scenes_end_at_the_size_limit() {
             scene.display()
         ),
     );
-    let (run, _) = render(&scene, &["--max-scene-bytes", "1000"]);
+    let (run, _) = render(&scene, &dir, &["--max-scene-bytes", "1000"]);
     assert!(
         run.status.success(),
         "{}",
@@ -124,7 +124,7 @@ fn a_byte_that_is_not_utf8_is_an_error_at_its_line_and_column() {
     let mut bytes = HEAD.as_bytes().to_vec();
     bytes.extend(b"Group { numObjects 1 # caf\xe9\n Sphere { center 0 0 -5 radius 1 } }\n");
     std::fs::write(&path, bytes).unwrap();
-    let (run, _) = render(&path, &[]);
+    let (run, _) = render(&path, &dir, &[]);
     refused_with(
         &run,
         &format!(
@@ -146,7 +146,7 @@ fn ten_thousand_nested_transforms_are_an_error_not_a_stack_overflow() {
         " }".repeat(10_000)
     );
     let path = with_group(&dir, "deep.txt", &group);
-    let (run, _) = render(&path, &[]);
+    let (run, _) = render(&path, &dir, &[]);
     // Group at depth 1, so the 256th transform is the first block beyond the limit.
     let column = "Group { numObjects 1 ".len() + "Transform { ".len() * 255 + 1;
     refused_with(
@@ -171,7 +171,7 @@ fn numbers_the_device_cannot_hold_are_errors_at_their_place() {
         "one.txt",
         "Transform { UniformScale 1e39 Sphere { center 0 0 -5 radius 1 } }",
     );
-    let (run, _) = render(&one, &[]);
+    let (run, _) = render(&one, &dir, &[]);
     refused_with(
         &run,
         &format!(
@@ -184,7 +184,7 @@ fn numbers_the_device_cannot_hold_are_errors_at_their_place() {
         "two.txt",
         "Transform { UniformScale 1e20 UniformScale 1e20 Sphere { center 0 0 -5 radius 1 } }",
     );
-    let (run, _) = render(&two, &[]);
+    let (run, _) = render(&two, &dir, &[]);
     refused_with(
         &run,
         &format!(

@@ -1013,7 +1013,8 @@ fn expect_errors(cases: &[(&str, String, &str, &str)]) {
     assert!(failures.is_empty(), "\n{}", failures.join("\n"));
 }
 
-const F32_RANGE: &str = "within f32's range (0, or a magnitude from 1e-45 to 3.4028235e38, as the device computes in f32)";
+const F32_RANGE: &str = "within f32's range (0, or a magnitude from 1e-45 to 3.4028235e38, as \
+                         the device computes in f32)";
 
 /// A number finite in f64 but not in f32 (1e39), or nonzero in f64 but 0 in f32 (1e-50), is an
 /// error at the number naming its field and f32's range, wherever it becomes an f32 on the
@@ -1211,7 +1212,8 @@ fn composed_transforms_beyond_f32_fail_at_the_object() {
 fn a_projective_matrix4f_is_an_error() {
     let matrix = |numbers: &str| {
         with_group(&format!(
-            "numObjects 1 Transform {{ Matrix4f {{ {numbers} }} Sphere {{ center 0 0 0 radius 1 }} }}"
+            "numObjects 1 Transform {{ Matrix4f {{ {numbers} }} \
+             Sphere {{ center 0 0 0 radius 1 }} }}"
         ))
     };
     expect_errors(&[

@@ -75,8 +75,8 @@ pub enum Shape {
     Sphere { center: DVec3, radius: f64 },
     /// `Plane { normal V offset F range F [centerp V] [dirU V] [dirV V] }`: the points p with
     /// normal.p = offset (the normal as written, or for a normal whose length would overflow or
-    /// underflow f64, normal and offset times one power of two ([`length_safe_scale`]); packing divides
-    /// normal and offset by its length), visible from the side the normal points to.
+    /// underflow f64, normal and offset times one power of two ([`length_safe_scale`]); packing
+    /// divides normal and offset by its length), visible from the side the normal points to.
     Plane {
         normal: DVec3,
         offset: f64,
