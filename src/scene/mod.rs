@@ -118,36 +118,6 @@ pub struct Scene {
     pub base_dir: Option<PathBuf>,
 }
 
-/// The largest scene file [`Scene::load`] reads, in bytes (64 MiB: the largest scene shipped
-/// or in the original's testcases is a few kilobytes; meshes live in OBJ files of their own).
-pub const DEFAULT_MAX_SCENE_BYTES: u64 = 64 << 20;
-
-impl Scene {
-    /// Reads and parses a scene file of at most [`DEFAULT_MAX_SCENE_BYTES`].
-    pub fn load(path: &Path) -> crate::Result<Scene> {
-        Scene::load_limited(path, DEFAULT_MAX_SCENE_BYTES)
-    }
-
-    /// Reads and parses a scene file of at most `max_bytes` (`--max-scene-bytes`).
-    pub fn load_limited(path: &Path, max_bytes: u64) -> crate::Result<Scene> {
-        let bytes = read_bounded(path, max_bytes)?;
-        let mut scene = parse::parse_scene_bytes(&bytes, &path.display().to_string())?;
-        scene.base_dir = Some(
-            path.parent()
-                .map(|p| {
-                    if p.as_os_str().is_empty() {
-                        Path::new(".")
-                    } else {
-                        p
-                    }
-                })
-                .unwrap_or(Path::new("."))
-                .to_path_buf(),
-        );
-        Ok(scene)
-    }
-}
-
 /// The bytes of a scene file, at most `max_bytes` of them: read through `take`, so that an
 /// endless source (`/dev/zero`, a pipe) or a huge file ends after the limit with an error rather
 /// than filling memory; the buffer is reserved fallibly.
@@ -198,6 +168,36 @@ pub fn length_safe_scale(v: DVec3) -> f64 {
 pub fn unit_vector(v: DVec3) -> Option<DVec3> {
     let unit = (v * length_safe_scale(v)).normalize_or_zero();
     (unit != DVec3::ZERO && unit.is_finite()).then_some(unit)
+}
+
+/// The largest scene file [`Scene::load`] reads, in bytes (64 MiB: the largest scene shipped
+/// or in the original's testcases is a few kilobytes; meshes live in OBJ files of their own).
+pub const DEFAULT_MAX_SCENE_BYTES: u64 = 64 << 20;
+
+impl Scene {
+    /// Reads and parses a scene file of at most [`DEFAULT_MAX_SCENE_BYTES`].
+    pub fn load(path: &Path) -> crate::Result<Scene> {
+        Scene::load_limited(path, DEFAULT_MAX_SCENE_BYTES)
+    }
+
+    /// Reads and parses a scene file of at most `max_bytes` (`--max-scene-bytes`).
+    pub fn load_limited(path: &Path, max_bytes: u64) -> crate::Result<Scene> {
+        let bytes = read_bounded(path, max_bytes)?;
+        let mut scene = parse::parse_scene_bytes(&bytes, &path.display().to_string())?;
+        scene.base_dir = Some(
+            path.parent()
+                .map(|p| {
+                    if p.as_os_str().is_empty() {
+                        Path::new(".")
+                    } else {
+                        p
+                    }
+                })
+                .unwrap_or(Path::new("."))
+                .to_path_buf(),
+        );
+        Ok(scene)
+    }
 }
 
 /// Finds a file a scene names (`what`: "texture", "mesh"): as written if absolute, else relative to the scene file's folder,
