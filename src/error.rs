@@ -89,6 +89,21 @@ pub enum Error {
         tried: Vec<PathBuf>,
     },
 
+    /// A file larger than clpt reads of its kind (`what`: "scene"), checked while reading, so
+    /// an endless source (`/dev/zero`, a pipe) ends too.
+    #[error(
+        "{what} {}: larger than the limit of {}; a larger file can be read with {flag} N",
+        path.display(),
+        bytes(*limit)
+    )]
+    FileTooLarge {
+        what: &'static str,
+        path: PathBuf,
+        limit: u64,
+        /// The option that raises the limit.
+        flag: &'static str,
+    },
+
     #[error("image {}: {message}", path.display())]
     Image { path: PathBuf, message: String },
 
@@ -122,6 +137,49 @@ impl Error {
     }
 }
 
+/// "100 bytes", or "67108864 bytes (64.0 MiB)" from a mebibyte on.
+fn bytes(count: u64) -> String {
+    const MIB: u64 = 1 << 20;
+    if count < MIB {
+        format!("{count} bytes")
+    } else {
+        format!("{count} bytes ({:.1} MiB)", count as f64 / MIB as f64)
+    }
+}
+
+/// The most characters [`quote`] shows of a text, escapes included.
+pub const QUOTE_CHARS: usize = 60;
+
+/// `text` in backticks for a message, as its reader can act on it: control, invisible and other
+/// non-printing characters escaped the way Rust writes them (`\0`, `\t`, `\u{200b}`:
+/// `char::escape_debug`, which follows Unicode's printable classes), and cut after
+/// [`QUOTE_CHARS`] characters with an ellipsis, so that a gigabyte-long token, or a file of NULs,
+/// gives a short line that still shows what is there.
+pub fn quote(text: &str) -> String {
+    let mut quoted = String::from("`");
+    let mut shown = 0;
+    for c in text.chars() {
+        let escaped = escape(c);
+        shown += escaped.chars().count();
+        if shown > QUOTE_CHARS {
+            quoted.push('…');
+            break;
+        }
+        quoted.push_str(&escaped);
+    }
+    quoted.push('`');
+    quoted
+}
+
+/// One character as [`quote`] shows it. Quotes and backslashes are printable and stay as
+/// written (the text is quoted in backticks; a Windows path keeps its look).
+fn escape(c: char) -> String {
+    match c {
+        '"' | '\'' | '\\' => c.to_string(),
+        _ => c.escape_debug().to_string(),
+    }
+}
+
 /// The `ocl` crate wraps a failing call in a banner of several paragraphs; keep the function
 /// and status lines (`clCreateBuffer`, `CL_INVALID_BUFFER_SIZE (-61)`), or the text as is.
 fn concise_opencl_message(text: &str) -> String {
@@ -139,3 +197,30 @@ fn concise_opencl_message(text: &str) -> String {
 }
 
 pub type Result<T> = std::result::Result<T, Error>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quote_escapes_what_cannot_be_seen_and_stays_short() {
+        assert_eq!(quote("Sphere"), "`Sphere`");
+        assert_eq!(quote("\u{200b}0.75"), "`\\u{200b}0.75`");
+        assert_eq!(quote("a\0b\tc\r\n\u{7f}"), "`a\\0b\\tc\\r\\n\\u{7f}`");
+        // Byte-order mark, no-break space, soft hyphen, right-to-left override.
+        assert_eq!(
+            quote("\u{feff}\u{a0}\u{ad}\u{202e}"),
+            "`\\u{feff}\\u{a0}\\u{ad}\\u{202e}`"
+        );
+        assert_eq!(quote("é \"x\" C:\\y's"), "`é \"x\" C:\\y's`");
+        let long = "7".repeat(1 << 20);
+        assert_eq!(quote(&long), format!("`{}…`", "7".repeat(QUOTE_CHARS)));
+        let nuls = "\0".repeat(1000);
+        assert_eq!(
+            quote(&nuls),
+            format!("`{}…`", "\\0".repeat(QUOTE_CHARS / 2))
+        );
+        let exact = "x".repeat(QUOTE_CHARS);
+        assert_eq!(quote(&exact), format!("`{exact}`"));
+    }
+}

@@ -191,6 +191,9 @@ struct SamplingArgs {
     /// Largest texture image accepted, in pixels.
     #[arg(long, default_value_t = clpt::scene::texture::DEFAULT_MAX_PIXELS)]
     max_texture_pixels: u64,
+    /// Largest scene file read, in bytes.
+    #[arg(long, value_name = "BYTES", default_value_t = clpt::scene::DEFAULT_MAX_SCENE_BYTES)]
+    max_scene_bytes: u64,
     /// Object BVH: auto (from 32 objects on), on, or off (test every object in turn).
     #[arg(long, default_value = "auto")]
     object_bvh: ObjectBvh,
@@ -317,7 +320,7 @@ struct BenchArgs {
 
 fn load_scene(path: Option<&Path>, sampling: &SamplingArgs) -> Result<Scene> {
     let mut scene = match path {
-        Some(p) => Scene::load(p)?,
+        Some(p) => Scene::load_limited(p, sampling.max_scene_bytes)?,
         None => builtin::scene()?,
     };
     for w in &scene.warnings {

@@ -978,3 +978,505 @@ fn colours_outside_zero_to_one_are_clamped_with_a_warning() {
         ]
     );
 }
+
+/// The 1-based line and column (in characters) of the first `needle` in `text`.
+fn position_of(text: &str, needle: &str) -> (usize, usize) {
+    let at = text
+        .find(needle)
+        .unwrap_or_else(|| panic!("{needle:?} not in {text:?}"));
+    let before = &text[..at];
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    (
+        before.matches('\n').count() + 1,
+        before[line_start..].chars().count() + 1,
+    )
+}
+
+/// Parses each (name, scene, where, fragment) and expects an error at the first `where` in the
+/// scene whose message holds `fragment`.
+fn expect_errors(cases: &[(&str, String, &str, &str)]) {
+    let mut failures = Vec::new();
+    for (name, text, place, fragment) in cases {
+        let (line, column) = position_of(text, place);
+        match parse_scene(text, "bad.txt") {
+            Ok(_) => failures.push(format!("{name}: parsed, expected an error")),
+            Err(ParseError { location, message }) => {
+                if (location.line, location.column) != (line, column) || !message.contains(fragment)
+                {
+                    failures.push(format!(
+                        "{name}: got {location}: {message}\n  want {line}:{column}: ...{fragment}..."
+                    ));
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "\n{}", failures.join("\n"));
+}
+
+const F32_RANGE: &str = "within f32's range (0, or a magnitude from 1e-45 to 3.4028235e38, as \
+                         the device computes in f32)";
+
+/// A number finite in f64 but not in f32 (1e39), or nonzero in f64 but 0 in f32 (1e-50), is an
+/// error at the number naming its field and f32's range, wherever it becomes an f32 on the
+/// device (a sphere of radius 1e39 was accepted, and one `UniformScale 1e39` blacked out the
+/// image).
+#[test]
+fn numbers_beyond_f32_fail_where_they_are() {
+    let sphere = |fields: &str| with_group(&format!("numObjects 1 Sphere {{ {fields} }}"));
+    let in_transform = |ops: &str| {
+        with_group(&format!(
+            "numObjects 1 Transform {{ {ops} Sphere {{ center 0 0 0 radius 1 }} }}"
+        ))
+    };
+    let material =
+        |fields: &str| with_materials(&format!("numMaterials 1 Material {{ {fields} }}"));
+    let camera = |extra: &str| with_camera(&format!("{CAMERA} {extra}"));
+    let plane = |fields: &str| with_group(&format!("numObjects 1 Plane {{ {fields} }}"));
+    let curve = |points: &str| {
+        with_group(&format!(
+            "numObjects 1 RevSurface {{ profile BezierCurve {{ controls {points} }} }}"
+        ))
+    };
+    let f32_error = |field: &str| format!("expected `{field}` {F32_RANGE}, found ");
+    let cases: Vec<(&str, String, &str, String)> = vec![
+        (
+            "radius",
+            sphere("center 0 0 0 radius 1e39"),
+            "1e39",
+            f32_error("radius"),
+        ),
+        (
+            "tiny radius",
+            sphere("center 0 0 0 radius 1e-50"),
+            "1e-50",
+            f32_error("radius"),
+        ),
+        (
+            "centre",
+            sphere("center 0 -1e39 0 radius 1"),
+            "-1e39",
+            f32_error("center"),
+        ),
+        (
+            "emission",
+            material("emission 1 1 1e39"),
+            "1e39",
+            f32_error("emission"),
+        ),
+        (
+            "colour",
+            material("color 1e39 0 0"),
+            "1e39",
+            f32_error("color"),
+        ),
+        (
+            "scale",
+            in_transform("Scale 1 1e39 1"),
+            "1e39",
+            f32_error("Scale"),
+        ),
+        (
+            "uniform scale",
+            in_transform("UniformScale 1e39"),
+            "1e39",
+            f32_error("UniformScale"),
+        ),
+        (
+            "translation",
+            in_transform("Translate 0 0 4e38"),
+            "4e38",
+            f32_error("Translate"),
+        ),
+        (
+            "rotation",
+            in_transform("YRotate 1e39"),
+            "1e39",
+            f32_error("YRotate"),
+        ),
+        (
+            "matrix entry",
+            in_transform("Matrix4f { 1e39 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 }"),
+            "1e39",
+            f32_error("Matrix4f"),
+        ),
+        (
+            "camera centre",
+            with_camera(&CAMERA.replace("center 0 0 0", "center 1e39 0 0")),
+            "1e39",
+            f32_error("center"),
+        ),
+        (
+            "focal length",
+            camera("flength 1e39"),
+            "1e39",
+            f32_error("flength"),
+        ),
+        (
+            "aperture",
+            camera("aperture 1e-60"),
+            "1e-60",
+            f32_error("aperture"),
+        ),
+        (
+            "plane range",
+            plane("normal 0 1 0 offset 0 range 1e39"),
+            "1e39",
+            f32_error("range"),
+        ),
+        (
+            "plane centre",
+            plane("normal 0 1 0 offset 0 range 1 centerp 0 1e39 0"),
+            "1e39",
+            f32_error("centerp"),
+        ),
+        (
+            "plane dirU",
+            plane("normal 0 1 0 offset 0 range 1 dirU 1e39 0 0"),
+            "1e39",
+            f32_error("dirU"),
+        ),
+        (
+            "control point",
+            curve("[ 0 0 0 ] [ 1e39 1 0 ]"),
+            "1e39",
+            f32_error("controls"),
+        ),
+        (
+            "plane distance",
+            plane("normal 0 1 0 offset 1e39 range 1"),
+            "1e39",
+            "expected `offset` divided by the length of `normal` (the plane's distance from the \
+             origin) of at most 3.4028235e38 in magnitude, as the device holds it as an f32, \
+             found 1e39 over a normal of length 1.0"
+                .into(),
+        ),
+        (
+            "plane distance over a short normal",
+            plane("normal 0 1e-30 0 offset 1e10 range 1"),
+            "1e10",
+            "found 10000000000.0 over a normal of length 1e-30".into(),
+        ),
+    ];
+    let cases: Vec<(&str, String, &str, &str)> = cases
+        .iter()
+        .map(|(name, text, place, fragment)| (*name, text.clone(), *place, fragment.as_str()))
+        .collect();
+    expect_errors(&cases);
+}
+
+/// Each op may fit f32 while their product does not: the composed matrix of an object, and its
+/// inverse, are checked once at the object (two `UniformScale 1e20` gave an entry of 1e40).
+#[test]
+fn composed_transforms_beyond_f32_fail_at_the_object() {
+    let sphere = "Sphere { center 0 0 0 radius 1 }";
+    let cases = [
+        (
+            "product of two scales",
+            format!("UniformScale 1e20 UniformScale 1e20 {sphere}"),
+            "expected this object's `Transform` matrix and its inverse to have entries of at most \
+             3.4028235e38 in magnitude, as the device holds them as f32s, found 1e40 in its matrix",
+        ),
+        (
+            "nested transforms",
+            format!("UniformScale 1e20 Transform {{ UniformScale 1e20 {sphere} }}"),
+            "found 1e40 in its matrix",
+        ),
+        (
+            "inverse",
+            format!("UniformScale 1e-20 Transform {{ UniformScale 1e-20 {sphere} }}"),
+            "in its inverse",
+        ),
+    ];
+    let cases: Vec<(&str, String, &str, &str)> = cases
+        .iter()
+        .map(|(name, ops, fragment)| {
+            let text = with_group(&format!("numObjects 1 Transform {{ {ops} }}"));
+            (*name, text, "Transform", *fragment)
+        })
+        .collect();
+    expect_errors(&cases);
+    // Products in range load, and so do entries that are mere rounding, 0 in f32 (a rotation's
+    // 6e-17 under a scale of 1e-30).
+    for ops in [
+        "UniformScale 1e20 UniformScale 1e-20",
+        "UniformScale 1e-30 XRotate 90",
+    ] {
+        let fine = with_group(&format!("numObjects 1 Transform {{ {ops} {sphere} }}"));
+        assert!(parse_scene(&fine, "fine").is_ok(), "{ops}");
+    }
+}
+
+/// A `Matrix4f` whose bottom row (numbers 4, 8, 12 and 16, read column by column) is not
+/// 0 0 0 1 is an error at the first number that breaks it; its projective row was dropped.
+#[test]
+fn a_projective_matrix4f_is_an_error() {
+    let matrix = |numbers: &str| {
+        with_group(&format!(
+            "numObjects 1 Transform {{ Matrix4f {{ {numbers} }} \
+             Sphere {{ center 0 0 0 radius 1 }} }}"
+        ))
+    };
+    expect_errors(&[
+        (
+            "perspective row",
+            matrix("1 0 0 0  0 1 0 0  0 0 1 0.5  0 0 0 1"),
+            "0.5",
+            "expected `0` as number 12 of `Matrix4f`, found `0.5`: read column by column, its \
+             bottom row must be 0 0 0 1",
+        ),
+        (
+            "weight",
+            matrix("1 0 0 0  0 1 0 0  0 0 1 0  5 6 7 2"),
+            "2 }",
+            "expected `1` as number 16 of `Matrix4f`, found `2`",
+        ),
+    ]);
+    // An affine matrix with a translation loads.
+    let text = matrix("1 0 0 0  0 2 0 0  0 0 1 0  5 6 7 1");
+    let scene = parse_scene(&text, "affine").unwrap();
+    let m = scene.objects[0].transform.unwrap();
+    assert_eq!(m.w_axis.to_array(), [5.0, 6.0, 7.0, 1.0]);
+    assert_eq!(m.y_axis.to_array(), [0.0, 2.0, 0.0, 0.0]);
+}
+
+/// Plane normals of any length (components of 1e-300 to 1e300, or mixed) pack as the same
+/// unit normal and distance as their unit-length form; before, a normal `1e-200 0 0` had
+/// length 0 and packed as NaN. The zero normal stays an error.
+#[test]
+fn plane_normals_of_any_length_pack_as_their_unit_normal() {
+    let packed_plane = |normal: [f64; 3], offset: f64| {
+        let [x, y, z] = normal;
+        let text = with_group(&format!(
+            "numObjects 1 Plane {{ normal {x:e} {y:e} {z:e} offset {offset:e} range 10 }}"
+        ));
+        let scene = parse_scene(&text, "plane").unwrap_or_else(|e| panic!("{e}"));
+        let packed = clpt::device::upload::PackedScene::new(&scene, u64::MAX)
+            .unwrap_or_else(|e| panic!("{e}"));
+        (packed.planes[0].normal, packed.planes[0].offset)
+    };
+    for unit in [[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.6, 0.0, 0.8]] {
+        let want = packed_plane(unit, -3.0);
+        for length in [1e-300, 1e-200, 1e-30, 1e30, 1e200, 1e300] {
+            let (normal, offset) = packed_plane(unit.map(|c| c * length), -3.0 * length);
+            assert!(
+                normal
+                    .iter()
+                    .zip(want.0)
+                    .all(|(a, b)| (a - b).abs() <= 1e-6)
+                    && (offset - want.1).abs() <= 3e-6,
+                "normal {unit:?} x {length:e}: {normal:?} {offset}, want {want:?}"
+            );
+        }
+    }
+    // Mixed: components 60 orders of magnitude apart.
+    let (normal, offset) = packed_plane([1e30, 1e-30, 0.0], 5e30);
+    assert_eq!((normal, offset), ([1.0, 0.0, 0.0], 5.0));
+    let (normal, offset) = packed_plane([3e-320, 4e-320, 0.0], 5e-320);
+    assert!(
+        (normal[0] - 0.6).abs() < 1e-2
+            && (normal[1] - 0.8).abs() < 1e-2
+            && (offset - 1.0).abs() < 1e-2,
+        "subnormal normal: {normal:?} {offset}"
+    );
+    let zero = with_group("numObjects 1 Plane { normal 0 0 0 offset 0 range 1 }");
+    let err = parse_scene(&zero, "zero").unwrap_err();
+    assert!(
+        err.message
+            .contains("expected a nonzero vector for `normal`"),
+        "{err}"
+    );
+}
+
+/// Negative emission would subtract light: clamped to 0 with a warning at its field, as
+/// colours outside [0, 1] are.
+#[test]
+fn negative_emission_is_clamped_with_a_warning() {
+    let text = with_materials(
+        "numMaterials 2 Material { emission -1 2 -0.5 } Material { emission 3 3 3 }",
+    );
+    let scene = parse_scene(&text, "neg").unwrap();
+    assert_eq!(scene.materials[0].emission, DVec3::new(0.0, 2.0, 0.0));
+    assert_eq!(scene.materials[1].emission, DVec3::splat(3.0));
+    let (line, column) = position_of(&text, "emission -1");
+    assert_eq!(
+        warnings_of(&scene),
+        [(
+            line,
+            column,
+            "`emission -1 2 -0.5` is negative (a surface cannot emit less than no light): \
+             clamped to 0 2 0"
+        )]
+    );
+}
+
+/// The camera's direction is checked where it is written: zero, too small to normalise is no
+/// longer "zero", and parallel to the x axis (smallpt's basis cannot frame it) was an error
+/// with no place.
+#[test]
+fn camera_direction_errors_name_their_place() {
+    let camera = |direction: &str| {
+        with_camera(&format!(
+            "center 0 0 0 direction {direction} angle 30 width 4 height 3"
+        ))
+    };
+    expect_errors(&[
+        (
+            "parallel to x",
+            camera("-2 0 0"),
+            "-2 0 0",
+            "camera direction is parallel to the x axis",
+        ),
+        (
+            "zero",
+            camera("0 0 0"),
+            "0 0 0 angle",
+            "expected a nonzero vector for `direction`, found the zero vector",
+        ),
+    ]);
+    // A direction of any length frames the same picture.
+    for direction in ["0 -1e-320 -1e-320", "0 -1e300 -1e300", "0 -1 -1"] {
+        let scene = parse_scene(&camera(direction), "tiny").unwrap_or_else(|e| panic!("{e}"));
+        let basis = clpt::scene::camera::CameraBasis::new(&scene.camera).unwrap();
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        assert!(
+            (basis.forward - DVec3::new(0.0, -h, -h)).length() < 1e-15,
+            "{direction}: {:?}",
+            basis.forward
+        );
+    }
+}
+
+/// A bad token is quoted with invisible and control characters escaped and at most 60
+/// characters shown: a zero-width space was printed raw (`​0.75`), and a long token whole.
+#[test]
+fn bad_tokens_are_quoted_escaped_and_short() {
+    let radius = |token: &str| {
+        with_group(&format!(
+            "numObjects 1 Sphere {{ center 0 0 0 radius {token} }}"
+        ))
+    };
+    let err = |text: &str| parse_scene(text, "bad.txt").unwrap_err().to_string();
+    assert!(
+        err(&radius("\u{200b}0.75"))
+            .ends_with("expected a number for `radius`, found `\\u{200b}0.75`"),
+        "{}",
+        err(&radius("\u{200b}0.75"))
+    );
+    let nuls = "\0".repeat(1 << 20);
+    let message = err(&radius(&nuls));
+    assert!(
+        message.ends_with(&format!("found `{}…`", "\\0".repeat(30))),
+        "{message:.200}"
+    );
+    let long = "9".repeat(1 << 20) + "x";
+    let message = err(&with_camera(&format!("{CAMERA} flength {long}")));
+    assert!(message.len() < 200, "{message:.300}");
+    assert!(
+        message.contains(&format!("found `{}…`", "9".repeat(60))),
+        "{message}"
+    );
+    // Control characters in a word, and a right-to-left override in a keyword's place.
+    let message = err("Perspective\u{7}Camera\u{202e} { }");
+    assert!(
+        message.contains("found `Perspective\\u{7}Camera\\u{202e}`"),
+        "{message}"
+    );
+}
+
+/// Bytes that are not UTF-8 are an error at their line and column, naming them (a Latin-1
+/// `é` in a comment gave "stream did not contain valid UTF-8" with no place).
+#[test]
+fn invalid_utf8_names_line_column_and_byte() {
+    use clpt::scene::parse::parse_scene_bytes;
+    let mut bytes = scene(CAMERA, MATERIALS, GROUP).into_bytes();
+    bytes.extend(b"# caf\xe9 au lait\n");
+    let err = parse_scene_bytes(&bytes, "latin1.txt").unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "latin1.txt:4:6: expected UTF-8 text, found the byte 0xE9: not UTF-8 (is the file \
+         Latin-1 or Windows-1252? save it as UTF-8)"
+    );
+    // Columns count characters, as everywhere: `é` (UTF-8) and a tab are one each.
+    let err = parse_scene_bytes(b"\xef\xbb\xbf\xc3\xa9\tx\x80", "f").unwrap_err();
+    assert_eq!((err.location.line, err.location.column), (1, 4), "{err}");
+    let err = parse_scene_bytes(b"x \xc3\xa9 \xff\xfe", "f").unwrap_err();
+    assert_eq!((err.location.line, err.location.column), (1, 5), "{err}");
+    assert!(err.message.contains("the byte 0xFF"), "{err}");
+    // A character cut off by the end of the file.
+    let err = parse_scene_bytes(b"Group \xe2\x80", "f").unwrap_err();
+    assert!(
+        err.message.ends_with(
+            "found the bytes 0xE2 0x80: an unfinished UTF-8 character at the end of the file"
+        ),
+        "{err}"
+    );
+    assert_eq!((err.location.line, err.location.column), (1, 7));
+}
+
+/// Nesting deeper than `MAX_NESTING` is an error at the block that goes too deep, on a thread
+/// with the default stack (10,000 nested `Transform` blocks overflowed the stack and aborted).
+#[test]
+fn nesting_beyond_the_limit_is_an_error_not_a_stack_overflow() {
+    use clpt::scene::parse::MAX_NESTING;
+    let nested = |transforms: usize| {
+        format!(
+            "{}{}Sphere {{ center 0 0 0 radius 1 }}{} }}\n",
+            scene(CAMERA, MATERIALS, "numObjects 1")
+                .trim_end()
+                .trim_end_matches('}'),
+            "Transform { ".repeat(transforms),
+            " }".repeat(transforms)
+        )
+    };
+    let parse = |text: String| {
+        std::thread::spawn(move || parse_scene(&text, "deep.txt").map(|s| s.objects.len()))
+            .join()
+            .expect("the parse thread ended without a result")
+    };
+    // `Group`, the transforms and the sphere: the deepest that loads has MAX_NESTING - 2.
+    assert_eq!(parse(nested(MAX_NESTING - 2)), Ok(1));
+    // The first block beyond MAX_NESTING: the sphere, or the next transform.
+    for (transforms, word) in [(MAX_NESTING - 1, "Sphere"), (10_000, "Transform")] {
+        let text = nested(transforms);
+        let err = parse(text.clone()).unwrap_err();
+        let (line, first) = position_of(&text, "Transform");
+        let column = first + "Transform { ".len() * (MAX_NESTING - 1);
+        assert_eq!(
+            (err.location.line, err.location.column),
+            (line, column),
+            "{err}"
+        );
+        assert_eq!(
+            err.message,
+            format!(
+                "expected blocks nested at most {MAX_NESTING} deep, found `{word}` {} deep",
+                MAX_NESTING + 1
+            )
+        );
+    }
+}
+
+/// Declared counts are only compared with what the block lists, never used to reserve memory:
+/// four billion objects and materials load as the one each that is there, with warnings.
+#[test]
+fn declared_counts_do_not_allocate() {
+    let text = scene(
+        CAMERA,
+        "numMaterials 4000000000 Material { }",
+        "numObjects 4000000000 Sphere { center 0 0 0 radius 1 }",
+    );
+    let scene = parse_scene(&text, "counts").unwrap();
+    assert_eq!((scene.materials.len(), scene.objects.len()), (1, 1));
+    assert_eq!(scene.warnings.len(), 2);
+    let err = parse_scene(
+        &with_group("numObjects 99999999999999999999 Sphere { center 0 0 0 radius 1 }"),
+        "t",
+    )
+    .unwrap_err();
+    assert!(
+        err.message.contains(
+            "expected an integer of at most 9223372036854775807 in magnitude for `numObjects`"
+        ),
+        "{err}"
+    );
+}

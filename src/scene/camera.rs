@@ -13,6 +13,23 @@ use glam::DVec3;
 /// The largest image clpt renders, in pixels.
 pub const MAX_PIXELS: u64 = 1 << 30;
 
+/// The unit viewing direction of a camera's `direction`, or why it cannot frame an image (the
+/// parser reports this at the scene's `direction`, [`CameraBasis::new`] for cameras made in
+/// code): it must be nonzero (of any finite length) and not parallel to the x axis, as
+/// smallpt's basis takes cx along world +x and cy = normalize(cx x d).
+pub fn forward(direction: DVec3) -> std::result::Result<DVec3, String> {
+    let forward = super::unit_vector(direction)
+        .ok_or_else(|| "camera direction must be a non-zero vector".to_string())?;
+    if DVec3::X.cross(forward).length() < 1e-9 {
+        return Err(
+            "camera direction is parallel to the x axis: smallpt's camera basis \
+                    (cx along world +x) cannot frame it"
+                .into(),
+        );
+    }
+    Ok(forward)
+}
+
 /// The image-plane vectors of a camera, in f64 (the f64 reference in the tests uses them too).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CameraBasis {
@@ -30,12 +47,7 @@ pub struct CameraBasis {
 
 impl CameraBasis {
     pub fn new(desc: &CameraDesc) -> Result<CameraBasis> {
-        let forward = desc.direction.normalize_or_zero();
-        if forward == DVec3::ZERO || !forward.is_finite() {
-            return Err(Error::Invalid(
-                "camera direction must be a non-zero vector".into(),
-            ));
-        }
+        let forward = forward(desc.direction).map_err(Error::Invalid)?;
         if desc.width == 0 || desc.height == 0 {
             return Err(Error::Invalid(
                 "image width and height must be positive".into(),
@@ -51,13 +63,6 @@ impl CameraBasis {
         let a = desc.angle_deg.to_radians();
         let cx = DVec3::new(desc.width as f64 * a / desc.height as f64, 0.0, 0.0);
         let up = cx.cross(forward);
-        if up.length() < 1e-9 * cx.length() {
-            return Err(Error::Invalid(
-                "camera direction is parallel to the x axis: smallpt's camera basis \
-                 (cx along world +x) cannot frame it"
-                    .into(),
-            ));
-        }
         let cy = up.normalize() * a;
         let thin_lens = desc.flength > 0.0;
         Ok(CameraBasis {

@@ -12,6 +12,7 @@ pub mod texture;
 
 use crate::error::{Location, Warning};
 use glam::{DMat4, DVec3};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// `PerspectiveCamera { center direction angle width height flength aperture }`.
@@ -73,8 +74,9 @@ pub enum Shape {
     /// `Sphere { center V radius F }`.
     Sphere { center: DVec3, radius: f64 },
     /// `Plane { normal V offset F range F [centerp V] [dirU V] [dirV V] }`: the points p with
-    /// normal.p = offset (the normal as written; packing divides normal and offset by its length),
-    /// visible from the side the normal points to.
+    /// normal.p = offset (the normal as written, or for a normal whose length would overflow or
+    /// underflow f64, normal and offset times one power of two ([`length_safe_scale`]); packing
+    /// divides normal and offset by its length), visible from the side the normal points to.
     Plane {
         normal: DVec3,
         offset: f64,
@@ -116,14 +118,72 @@ pub struct Scene {
     pub base_dir: Option<PathBuf>,
 }
 
-impl Scene {
-    /// Reads and parses a scene file.
-    pub fn load(path: &Path) -> crate::Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|source| crate::Error::Read {
+/// The bytes of a scene file, at most `max_bytes` of them: read through `take`, so that an
+/// endless source (`/dev/zero`, a pipe) or a huge file ends after the limit with an error rather
+/// than filling memory; the buffer is reserved fallibly.
+fn read_bounded(path: &Path, max_bytes: u64) -> crate::Result<Vec<u8>> {
+    let failed = |source| crate::Error::Read {
+        path: path.to_path_buf(),
+        source,
+    };
+    let file = std::fs::File::open(path).map_err(failed)?;
+    // The file's size, where it has one, saves growing the buffer (0 for devices and pipes).
+    let size = file.metadata().map_or(0, |m| m.len());
+    let mut bytes = Vec::new();
+    bytes
+        .try_reserve_exact(size.min(max_bytes.saturating_add(1)) as usize)
+        .map_err(|e| failed(e.into()))?;
+    file.take(max_bytes.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(failed)?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(crate::Error::FileTooLarge {
+            what: "scene",
             path: path.to_path_buf(),
-            source,
-        })?;
-        let mut scene = parse::parse_scene(&text, &path.display().to_string())?;
+            limit: max_bytes,
+            flag: "--max-scene-bytes",
+        });
+    }
+    Ok(bytes)
+}
+
+/// A power of two by which `v` can be multiplied so that its length neither overflows nor
+/// underflows in f64 (components beyond 2^±500 have squares beyond f64's range: a normal
+/// `1e-200 0 0` had length 0): 1 for every ordinary vector, which so stays bit for bit as it is.
+/// Scaling by a power of two is exact; only components under 2^-900 of the largest may lose
+/// bits, far below any rounding of the result.
+pub fn length_safe_scale(v: DVec3) -> f64 {
+    let largest = v.abs().max_element();
+    if largest > 2f64.powi(500) {
+        2f64.powi(-600)
+    } else if largest > 0.0 && largest < 2f64.powi(-500) {
+        2f64.powi(600)
+    } else {
+        1.0
+    }
+}
+
+/// The unit vector along `v` (any finite length), or `None` for the zero vector or a non-finite
+/// one.
+pub fn unit_vector(v: DVec3) -> Option<DVec3> {
+    let unit = (v * length_safe_scale(v)).normalize_or_zero();
+    (unit != DVec3::ZERO && unit.is_finite()).then_some(unit)
+}
+
+/// The largest scene file [`Scene::load`] reads, in bytes (64 MiB: the largest scene shipped
+/// or in the original's testcases is a few kilobytes; meshes live in OBJ files of their own).
+pub const DEFAULT_MAX_SCENE_BYTES: u64 = 64 << 20;
+
+impl Scene {
+    /// Reads and parses a scene file of at most [`DEFAULT_MAX_SCENE_BYTES`].
+    pub fn load(path: &Path) -> crate::Result<Scene> {
+        Scene::load_limited(path, DEFAULT_MAX_SCENE_BYTES)
+    }
+
+    /// Reads and parses a scene file of at most `max_bytes` (`--max-scene-bytes`).
+    pub fn load_limited(path: &Path, max_bytes: u64) -> crate::Result<Scene> {
+        let bytes = read_bounded(path, max_bytes)?;
+        let mut scene = parse::parse_scene_bytes(&bytes, &path.display().to_string())?;
         scene.base_dir = Some(
             path.parent()
                 .map(|p| {

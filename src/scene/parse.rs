@@ -16,13 +16,22 @@
 //! number. Anything else the original would misread is a [`ParseError`] at file:line:column
 //! (columns count characters, a tab is one) naming what was expected and what was found:
 //! unknown words, malformed or non-finite numbers, repeated or missing fields, values out of
-//! range, material indices with no material, blocks left open at the end of the file. `Mesh`,
-//! `TriangleMesh`, `Transform` and `RevSurface` are refused until the issues that bring them land.
+//! range, material indices with no material, blocks left open at the end of the file.
+//!
+//! Hostile input (issue 14) ends with an error too, never a crash, a hang or a flood: bytes that
+//! are not UTF-8 (at their line and column), blocks nested deeper than [`MAX_NESTING`], numbers
+//! the device cannot hold as an f32 (finite in f64 but not in f32, or nonzero but 0 in f32), an
+//! object whose composed `Transform` or its inverse has such an entry, a projective `Matrix4f`.
+//! A bad token is quoted through [`crate::error::quote`]: escaped and at most 60 characters.
+//! Negative emission, like a colour outside [0, 1], is clamped with a warning. Tokens are read
+//! one at a time as the parser asks for them, and declared counts reserve nothing, so memory
+//! follows what the scene holds, not how many tokens or what counts it claims.
 
 use super::curve::{Curve, CurveKind};
 use super::{CameraDesc, Material, MaterialKind, Object, Scene, Shape, TextureFiles};
-use crate::error::{Location, ParseError, Warning};
+use crate::error::{Location, ParseError, Warning, quote};
 use glam::{DMat4, DVec2, DVec3};
+use std::num::IntErrorKind;
 use std::path::PathBuf;
 
 type Result<T> = std::result::Result<T, ParseError>;
@@ -72,6 +81,48 @@ const TRANSFORM_ITEMS: [&str; 15] = [
     "RevSurface",
     "}",
 ];
+
+/// Blocks may nest at most this deep (`Group`, each `Transform`, the object, a `Rotate` or curve
+/// in it): 10,000 nested `Transform` blocks overflowed the stack. The original's scenes nest 4
+/// deep, and nested transforms compose into one matrix per object, so depth buys nothing on the
+/// device. Each `Transform` level takes about 2 KiB of the parser's stack (254 levels needed
+/// between 384 and 512 KiB, in release and debug builds alike), so 256 levels use a quarter of
+/// the 2 MiB a spawned thread gets.
+pub const MAX_NESTING: usize = 256;
+
+/// Parses the bytes of a scene file: [`parse_scene`] once they are known to be UTF-8, else an
+/// error at the line and column of the first byte that is not.
+pub fn parse_scene_bytes(bytes: &[u8], file: &str) -> Result<Scene> {
+    let text = std::str::from_utf8(bytes).map_err(|e| not_utf8(bytes, e, file))?;
+    parse_scene(text, file)
+}
+
+/// Where the text stops being UTF-8, and the bytes there (a Latin-1 `é` is the byte 0xE9).
+fn not_utf8(bytes: &[u8], error: std::str::Utf8Error, file: &str) -> ParseError {
+    let valid = error.valid_up_to();
+    // The bytes before `valid` are UTF-8: `from_utf8` said so.
+    let before = std::str::from_utf8(&bytes[..valid]).unwrap_or_default();
+    let mut counter = Tokenizer::new(before.strip_prefix('\u{feff}').unwrap_or(before));
+    counter.advance(counter.rest.len());
+    let bad = &bytes[valid..valid + error.error_len().unwrap_or(bytes.len() - valid)];
+    let hex: Vec<String> = bad.iter().map(|b| format!("0x{b:02X}")).collect();
+    let what = match error.error_len() {
+        Some(_) => "not UTF-8 (is the file Latin-1 or Windows-1252? save it as UTF-8)",
+        None => "an unfinished UTF-8 character at the end of the file",
+    };
+    ParseError {
+        location: Location {
+            file: file.to_string(),
+            line: counter.line,
+            column: counter.column,
+        },
+        message: format!(
+            "expected UTF-8 text, found the byte{} {}: {what}",
+            if bad.len() == 1 { "" } else { "s" },
+            hex.join(" ")
+        ),
+    }
+}
 
 /// Parses the text of a scene file; `file` names it in locations and becomes [`Scene::source`].
 pub fn parse_scene(text: &str, file: &str) -> Result<Scene> {
@@ -131,7 +182,7 @@ fn camera_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<CameraDe
         match key.text {
             "}" => break key,
             "center" => cur.once(&mut center, key, |c| c.vector("center").map(|(v, _)| v))?,
-            "direction" => cur.once(&mut direction, key, |c| c.nonzero_vector("direction"))?,
+            "direction" => cur.once(&mut direction, key, Cursor::camera_direction)?,
             "angle" => cur.once(&mut angle, key, |c| {
                 c.number_where(
                     "angle",
@@ -200,21 +251,26 @@ fn material_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Materi
     // closed room gave NaN pixels). Clamped to [0, 1], with a warning, as no renderer can give
     // such a scene a finite image; the samples themselves are never clamped.
     let color = color.map_or(DVec3::ONE, |(v, key)| {
-        let clamped = v.clamp(DVec3::ZERO, DVec3::ONE);
-        if clamped != v {
-            cur.warn(
-                key,
-                format!(
-                    "`color {} {} {}` is outside [0, 1] (a surface cannot reflect more light than \
-                     it receives, nor less than none): clamped to {} {} {}",
-                    v.x, v.y, v.z, clamped.x, clamped.y, clamped.z
-                ),
-            );
-        }
-        clamped
+        cur.clamped(
+            v,
+            DVec3::ONE,
+            key,
+            "is outside [0, 1] (a surface cannot reflect more light than it receives, nor less \
+             than none)",
+        )
+    });
+    // Negative emission would subtract light: radiance, and pixels, below zero. Clamped to 0
+    // with a warning, as colours are.
+    let emission = emission.map_or(DVec3::ZERO, |(v, key)| {
+        cur.clamped(
+            v,
+            DVec3::INFINITY,
+            key,
+            "is negative (a surface cannot emit less than no light)",
+        )
     });
     Ok(Material {
-        emission: emission.map_or(DVec3::ZERO, |(v, _)| v),
+        emission,
         color,
         kind: kind.map(|(v, _)| v).unwrap_or_default(),
         textures: textures.map(|(v, _)| v).unwrap_or_default(),
@@ -285,6 +341,9 @@ fn group_block<'a>(
             }
             word if is_object(word) => {
                 let (shape, transform) = object_block(cur, key)?;
+                if let Some(m) = &transform {
+                    device_matrix(m).map_err(|message| cur.error_at(key, message))?;
+                }
                 group.objects.push(Object {
                     shape,
                     material,
@@ -312,6 +371,30 @@ fn is_object(word: &str) -> bool {
         word,
         "Sphere" | "Plane" | "Mesh" | "TriangleMesh" | "Transform" | "RevSurface"
     )
+}
+
+/// Checks an object's composed `Transform` matrix as the device gets it: the top three rows of
+/// it and of its inverse must be finite in f32. Each op's numbers fit f32, but products of them
+/// need not (`UniformScale 1e20` twice), and one infinite entry blacked out the whole image. A
+/// tiny entry that is 0 in f32 is only rounding (a rotation's 6e-17 under a small scale), unless
+/// the whole matrix flushes towards 0, and then its inverse is infinite.
+fn device_matrix(m: &DMat4) -> std::result::Result<(), String> {
+    for (name, matrix) in [("matrix", *m), ("inverse", m.inverse())] {
+        let rows = [matrix.row(0), matrix.row(1), matrix.row(2)];
+        if let Some(bad) = rows
+            .iter()
+            .flat_map(|r| r.to_array())
+            .find(|&v| !(v as f32).is_finite())
+        {
+            return Err(format!(
+                "expected this object's `Transform` matrix and its inverse to have entries of at \
+                 most {:?} in magnitude, as the device holds them as f32s, found {bad:?} in its \
+                 {name}",
+                f32::MAX
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// One object (after its keyword), with the matrix of the `Transform` blocks around it.
@@ -378,19 +461,16 @@ fn transform_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<(Shap
             "ZRotate" => m *= DMat4::from_rotation_z(cur.number("ZRotate")?.0.to_radians()),
             "Rotate" => {
                 cur.open_block(key)?;
-                let axis = cur.nonzero_vector("Rotate")?;
+                let (_, axis, _) = cur.direction("Rotate")?;
                 let degrees = cur.number("Rotate")?.0;
                 cur.close_block(key)?;
-                m *= DMat4::from_axis_angle(axis.normalize(), degrees.to_radians());
+                m *= DMat4::from_axis_angle(axis, degrees.to_radians());
             }
             "Matrix4f" => {
                 cur.open_block(key)?;
-                let mut columns = [0.0; 16];
-                for value in &mut columns {
-                    *value = cur.number("Matrix4f")?.0;
-                }
+                let matrix = cur.affine_matrix()?;
                 cur.close_block(key)?;
-                m = DMat4::from_cols_array(&columns) * m;
+                m = matrix * m;
             }
             word if is_object(word) => {
                 if inner.is_some() {
@@ -450,8 +530,9 @@ fn plane_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Shape> {
         let key = cur.field()?;
         match key.text {
             "}" => break key,
-            "normal" => cur.once(&mut normal, key, |c| c.nonzero_vector("normal"))?,
-            "offset" => cur.once(&mut offset, key, |c| c.number("offset").map(|(v, _)| v))?,
+            "normal" => cur.once(&mut normal, key, |c| c.direction("normal").map(|(v, ..)| v))?,
+            // Any size: the device holds offset / |normal|, checked below.
+            "offset" => cur.once(&mut offset, key, |c| c.finite_number("`offset`"))?,
             "range" => cur.once(&mut range, key, |c| c.positive("range"))?,
             "centerp" => cur.once(&mut centerp, key, |c| c.vector("centerp").map(|(v, _)| v))?,
             "dirU" => cur.once(&mut dir_u, key, |c| c.vector("dirU").map(|(v, _)| v))?,
@@ -459,14 +540,56 @@ fn plane_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Shape> {
             _ => return Err(cur.unknown_field(key, keyword, &PLANE_FIELDS)),
         }
     };
+    let normal = cur.required(normal, "normal", keyword, close)?;
+    let (offset, offset_token) = cur.required(offset, "offset", keyword, close)?;
+    let range = cur.required(range, "range", keyword, close)?;
+    let (normal, offset) =
+        length_safe_plane(normal, offset).map_err(|m| cur.error_at(offset_token, m))?;
     Ok(Shape::Plane {
-        normal: cur.required(normal, "normal", keyword, close)?,
-        offset: cur.required(offset, "offset", keyword, close)?,
-        range: cur.required(range, "range", keyword, close)?,
+        normal,
+        offset,
+        range,
         centerp: centerp.map_or(DVec3::ZERO, |(v, _)| v),
         dir_u: dir_u.map_or(DVec3::ZERO, |(v, _)| v),
         dir_v: dir_v.map_or(DVec3::ZERO, |(v, _)| v),
     })
+}
+
+/// Whether the device can hold `value` as an f32: finite there, and not 0 unless it is 0 (a
+/// radius of 1e-50 would be none at all).
+fn fits_f32(value: f64) -> bool {
+    let single = value as f32;
+    single.is_finite() && (single != 0.0 || value == 0.0)
+}
+
+/// f32's range as messages state it.
+fn f32_range() -> String {
+    format!(
+        "f32's range (0, or a magnitude from {:?} to {:?}, as the device computes in f32)",
+        f32::from_bits(1),
+        f32::MAX
+    )
+}
+
+/// A plane's normal (any length) and offset, scaled by one power of two where the normal's
+/// length would overflow or underflow f64 (which leaves the plane's points as they are), if the
+/// distance from the origin, offset / |normal|, which the device holds, fits an f32.
+fn length_safe_plane(normal: DVec3, offset: f64) -> std::result::Result<(DVec3, f64), String> {
+    let scale = super::length_safe_scale(normal);
+    let (scaled_normal, scaled_offset) = (normal * scale, offset * scale);
+    let length = scaled_normal.length();
+    if ((scaled_offset / length) as f32).is_finite() {
+        Ok((scaled_normal, scaled_offset))
+    } else {
+        Err(format!(
+            "expected `offset` divided by the length of `normal` (the plane's distance from the \
+             origin) of at most {:?} in magnitude, as the device holds it as an f32, found {:?} \
+             over a normal of length {:?}",
+            f32::MAX,
+            offset,
+            length / scale
+        ))
+    }
 }
 
 /// "`a`, `b` or `c`".
@@ -559,13 +682,17 @@ impl<'a> Iterator for Tokenizer<'a> {
     }
 }
 
-/// The parser's position in the token list, the blocks open around it, and the warnings so far.
+/// The parser's position in the scene's tokens, read one at a time as the parser asks for them
+/// (a token list held 32 bytes a token before any was parsed), the blocks open around it, and the
+/// warnings so far.
 struct Cursor<'a> {
     file: &'a str,
-    tokens: Vec<Token<'a>>,
-    next: usize,
-    /// Just after the last token (1:1 when there is none): where end-of-file errors point.
-    end: Location,
+    tokens: Tokenizer<'a>,
+    /// The token after the last one taken, once `peek` has read it.
+    ahead: Option<Token<'a>>,
+    /// The last token taken: end-of-file errors, which come once every token is taken, point
+    /// just after it.
+    last: Option<Token<'a>>,
     /// Keywords of the blocks opened and not yet closed, innermost last.
     open: Vec<Token<'a>>,
     warnings: Vec<Warning>,
@@ -574,32 +701,39 @@ struct Cursor<'a> {
 impl<'a> Cursor<'a> {
     fn new(text: &'a str, file: &'a str) -> Self {
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        let tokens: Vec<Token<'a>> = Tokenizer::new(text).collect();
-        let (line, column) = tokens
-            .last()
-            .map_or((1, 1), |t| (t.line, t.column + t.text.chars().count()));
         Cursor {
             file,
-            tokens,
-            next: 0,
-            end: Location {
-                file: file.to_string(),
-                line,
-                column,
-            },
+            tokens: Tokenizer::new(text),
+            ahead: None,
+            last: None,
             open: Vec::new(),
             warnings: Vec::new(),
         }
     }
 
-    fn peek(&self) -> Option<Token<'a>> {
-        self.tokens.get(self.next).copied()
+    fn peek(&mut self) -> Option<Token<'a>> {
+        if self.ahead.is_none() {
+            self.ahead = self.tokens.next();
+        }
+        self.ahead
     }
 
     fn next(&mut self) -> Option<Token<'a>> {
-        let token = self.peek()?;
-        self.next += 1;
+        let token = self.ahead.take().or_else(|| self.tokens.next())?;
+        self.last = Some(token);
         Some(token)
+    }
+
+    /// Just after the last token (1:1 when there is none): where end-of-file errors point.
+    fn end(&self) -> Location {
+        let (line, column) = self
+            .last
+            .map_or((1, 1), |t| (t.line, t.column + t.text.chars().count()));
+        Location {
+            file: self.file.to_string(),
+            line,
+            column,
+        }
     }
 
     fn at(&self, token: Token) -> Location {
@@ -624,17 +758,41 @@ impl<'a> Cursor<'a> {
         });
     }
 
+    /// `value` clamped to [0, `most`] component by component, with a warning at its field `key`
+    /// saying `why` when that changed it.
+    fn clamped(&mut self, value: DVec3, most: DVec3, key: Token, why: &str) -> DVec3 {
+        let clamped = value.clamp(DVec3::ZERO, most);
+        if clamped != value {
+            let v = |v: DVec3| format!("{} {} {}", v.x, v.y, v.z);
+            self.warn(
+                key,
+                format!(
+                    "`{} {}` {why}: clamped to {}",
+                    key.text,
+                    v(value),
+                    v(clamped)
+                ),
+            );
+        }
+        clamped
+    }
+
     /// "expected {what}, found `{token}`", or at the end of the file, naming the innermost block
     /// left open.
     fn expected(&self, found: Option<Token>, what: &str) -> ParseError {
         match found {
-            Some(token) => self.error_at(token, format!("expected {what}, found `{}`", token.text)),
+            Some(token) => self.error_at(
+                token,
+                format!("expected {what}, found {}", quote(token.text)),
+            ),
             None => ParseError {
-                location: self.end.clone(),
+                location: self.end(),
                 message: match self.open.last() {
                     Some(block) => format!(
-                        "expected {what}, found end of file inside `{}` opened at {}:{}",
-                        block.text, block.line, block.column
+                        "expected {what}, found end of file inside {} opened at {}:{}",
+                        quote(block.text),
+                        block.line,
+                        block.column
                     ),
                     None => format!("expected {what}, found end of file"),
                 },
@@ -645,7 +803,7 @@ impl<'a> Cursor<'a> {
     fn unknown_field(&self, key: Token, block: Token, fields: &[&str]) -> ParseError {
         self.expected(
             Some(key),
-            &format!("{} in `{}`", one_of(fields), block.text),
+            &format!("{} in {}", one_of(fields), quote(block.text)),
         )
     }
 
@@ -660,7 +818,7 @@ impl<'a> Cursor<'a> {
             _ => format!("{} blocks", listed(&names, "and")),
         };
         ParseError {
-            location: self.end.clone(),
+            location: self.end(),
             message: format!("expected {what}, found end of file"),
         }
     }
@@ -722,18 +880,29 @@ impl<'a> Cursor<'a> {
                 self.open.pop();
                 Ok(())
             }
-            found => Err(self.expected(found, &format!("`}}` to close `{}`", keyword.text))),
+            found => Err(self.expected(found, &format!("`}}` to close {}", quote(keyword.text)))),
         }
     }
 
-    /// Consumes the `{` after a block's keyword and marks the block open.
+    /// Consumes the `{` after a block's keyword and marks the block open, at most
+    /// [`MAX_NESTING`] deep.
     fn open_block(&mut self, keyword: Token<'a>) -> Result<()> {
+        if self.open.len() >= MAX_NESTING {
+            return Err(self.error_at(
+                keyword,
+                format!(
+                    "expected blocks nested at most {MAX_NESTING} deep, found {} {} deep",
+                    quote(keyword.text),
+                    self.open.len() + 1
+                ),
+            ));
+        }
         match self.next() {
             Some(token) if token.text == "{" => {
                 self.open.push(keyword);
                 Ok(())
             }
-            found => Err(self.expected(found, &format!("`{{` after `{}`", keyword.text))),
+            found => Err(self.expected(found, &format!("`{{` after {}", quote(keyword.text)))),
         }
     }
 
@@ -748,10 +917,12 @@ impl<'a> Cursor<'a> {
             }
             None => Err(match self.open.last() {
                 Some(block) => ParseError {
-                    location: self.end.clone(),
+                    location: self.end(),
                     message: format!(
-                        "expected `}}` to close `{}` opened at {}:{}, found end of file",
-                        block.text, block.line, block.column
+                        "expected `}}` to close {} opened at {}:{}, found end of file",
+                        quote(block.text),
+                        block.line,
+                        block.column
                     ),
                 },
                 None => self.expected(None, "`}`"),
@@ -770,8 +941,10 @@ impl<'a> Cursor<'a> {
             return Err(self.error_at(
                 key,
                 format!(
-                    "expected `{}` only once, found it again (first at {}:{})",
-                    key.text, first.line, first.column
+                    "expected {} only once, found it again (first at {}:{})",
+                    quote(key.text),
+                    first.line,
+                    first.column
                 ),
             ));
         }
@@ -785,18 +958,23 @@ impl<'a> Cursor<'a> {
             self.error_at(
                 close,
                 format!(
-                    "expected `{field}` in `{}` opened at {}:{}, found `}}`",
-                    block.text, block.line, block.column
+                    "expected `{field}` in {} opened at {}:{}, found `}}`",
+                    quote(block.text),
+                    block.line,
+                    block.column
                 ),
             )
         })
     }
 
+    /// A number the device reads as an f32, and its token.
     fn number(&mut self, field: &str) -> Result<(f64, Token<'a>)> {
-        self.number_for(&format!("`{field}`"))
+        let (value, token) = self.finite_number(&format!("`{field}`"))?;
+        Ok((self.device_value(field, value, token)?, token))
     }
 
-    fn number_for(&mut self, what: &str) -> Result<(f64, Token<'a>)> {
+    /// A finite number of any size (`what` names it: "`field`").
+    fn finite_number(&mut self, what: &str) -> Result<(f64, Token<'a>)> {
         let found = self.next();
         match found.map(|t| (t.text.parse::<f64>(), t)) {
             Some((Ok(value), token)) if value.is_finite() => Ok((value, token)),
@@ -804,6 +982,15 @@ impl<'a> Cursor<'a> {
                 Err(self.expected(Some(token), &format!("a finite number for {what}")))
             }
             _ => Err(self.expected(found, &format!("a number for {what}"))),
+        }
+    }
+
+    /// `value`, read from `token` for `field`, if the device can hold it as an f32.
+    fn device_value(&self, field: &str, value: f64, token: Token) -> Result<f64> {
+        if fits_f32(value) {
+            Ok(value)
+        } else {
+            Err(self.expected(Some(token), &format!("`{field}` within {}", f32_range())))
         }
     }
 
@@ -815,7 +1002,7 @@ impl<'a> Cursor<'a> {
         } else {
             Err(self.error_at(
                 token,
-                format!("expected `{field}` {rule}, found `{}`", token.text),
+                format!("expected `{field}` {rule}, found {}", quote(token.text)),
             ))
         }
     }
@@ -828,32 +1015,93 @@ impl<'a> Cursor<'a> {
         self.number_where(field, |v| v >= 0.0, "of at least 0")
     }
 
-    /// Three numbers, and the token of the first.
-    fn vector(&mut self, field: &str) -> Result<(DVec3, Token<'a>)> {
+    /// Three finite numbers of any size, with their tokens.
+    fn components(&mut self, field: &str) -> Result<[(f64, Token<'a>); 3]> {
         let what = format!("`{field}`, which takes three");
-        let (x, first) = self.number_for(&what)?;
-        let (y, _) = self.number_for(&what)?;
-        let (z, _) = self.number_for(&what)?;
+        Ok([
+            self.finite_number(&what)?,
+            self.finite_number(&what)?,
+            self.finite_number(&what)?,
+        ])
+    }
+
+    /// Three numbers the device reads as f32s, and the token of the first.
+    fn vector(&mut self, field: &str) -> Result<(DVec3, Token<'a>)> {
+        let components = self.components(field)?;
+        for (value, token) in components {
+            self.device_value(field, value, token)?;
+        }
+        let [(x, first), (y, _), (z, _)] = components;
         Ok((DVec3::new(x, y, z), first))
     }
 
-    fn nonzero_vector(&mut self, field: &str) -> Result<DVec3> {
-        let (value, first) = self.vector(field)?;
-        if value == DVec3::ZERO {
-            Err(self.error_at(
+    /// A direction: three finite numbers of any size, not all 0, as written and as a unit
+    /// vector (normalised without overflow or underflow), and the token of the first.
+    fn direction(&mut self, field: &str) -> Result<(DVec3, DVec3, Token<'a>)> {
+        let [(x, first), (y, _), (z, _)] = self.components(field)?;
+        let written = DVec3::new(x, y, z);
+        match super::unit_vector(written) {
+            Some(unit) => Ok((written, unit, first)),
+            None => Err(self.error_at(
                 first,
                 format!("expected a nonzero vector for `{field}`, found the zero vector"),
-            ))
-        } else {
-            Ok(value)
+            )),
         }
+    }
+
+    /// The camera's `direction` as written, checked as the camera's basis needs it.
+    fn camera_direction(&mut self) -> Result<DVec3> {
+        let (written, _, first) = self.direction("direction")?;
+        super::camera::forward(written)
+            .map(|_| written)
+            .map_err(|message| self.error_at(first, message))
+    }
+
+    /// `Matrix4f`'s 16 numbers, column by column, as the course framework reads them. Its
+    /// bottom row (numbers 4, 8, 12, 16) must be 0 0 0 1: the device keeps the top three rows
+    /// of an affine matrix, and a projective row was dropped silently.
+    fn affine_matrix(&mut self) -> Result<DMat4> {
+        let mut columns = [0.0; 16];
+        for (i, value) in columns.iter_mut().enumerate() {
+            let (number, token) = self.number("Matrix4f")?;
+            let bottom = [0.0, 0.0, 0.0, 1.0][i / 4];
+            if i % 4 == 3 && number != bottom {
+                return Err(self.error_at(
+                    token,
+                    format!(
+                        "expected `{bottom}` as number {} of `Matrix4f`, found {}: read column \
+                         by column, its bottom row must be 0 0 0 1, as clpt's transforms are \
+                         affine (the device keeps the top three rows; a projective row would be \
+                         dropped)",
+                        i + 1,
+                        quote(token.text)
+                    ),
+                ));
+            }
+            *value = number;
+        }
+        Ok(DMat4::from_cols_array(&columns))
     }
 
     fn integer(&mut self, field: &str) -> Result<(i64, Token<'a>)> {
         let found = self.next();
-        match found.and_then(|t| Some((t.text.parse::<i64>().ok()?, t))) {
-            Some(integer) => Ok(integer),
-            None => Err(self.expected(found, &format!("an integer for `{field}`"))),
+        match found.map(|t| (t.text.parse::<i64>(), t)) {
+            Some((Ok(integer), token)) => Ok((integer, token)),
+            Some((Err(e), token))
+                if matches!(
+                    e.kind(),
+                    IntErrorKind::PosOverflow | IntErrorKind::NegOverflow
+                ) =>
+            {
+                Err(self.expected(
+                    Some(token),
+                    &format!(
+                        "an integer of at most {} in magnitude for `{field}`",
+                        i64::MAX
+                    ),
+                ))
+            }
+            _ => Err(self.expected(found, &format!("an integer for `{field}`"))),
         }
     }
 
@@ -885,8 +1133,8 @@ impl<'a> Cursor<'a> {
                 self.error_at(
                     token,
                     format!(
-                        "expected `{field}` between 1 and 65536, found `{}`",
-                        token.text
+                        "expected `{field}` between 1 and 65536, found {}",
+                        quote(token.text)
                     ),
                 )
             })
@@ -971,10 +1219,14 @@ mod tests {
 
     #[test]
     fn end_of_file_is_just_after_the_last_token() {
-        let cur = Cursor::new("a\n  bé # c\n\n", "f");
-        assert_eq!((cur.end.line, cur.end.column), (2, 5));
-        let empty = Cursor::new(" \n# only a comment\n", "f");
-        assert_eq!((empty.end.line, empty.end.column), (1, 1));
+        let end = |text| {
+            let mut cur = Cursor::new(text, "f");
+            while cur.next().is_some() {}
+            let end = cur.end();
+            (end.line, end.column)
+        };
+        assert_eq!(end("a\n  bé # c\n\n"), (2, 5));
+        assert_eq!(end(" \n# only a comment\n"), (1, 1));
     }
 
     #[test]
