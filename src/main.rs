@@ -657,6 +657,14 @@ fn render(args: &RenderArgs) -> Result<u8> {
             stats.nonfinite.count
         );
     }
+    if let Some((x, y)) = stats.overflowed.first {
+        eprintln!(
+            "warning: {} pixels are infinite in the image: their samples were finite, but their \
+             sum overflowed f32 (an emission near f32's largest value, 3.4e38?); the first at \
+             pixel ({x}, {y}) from the top left",
+            stats.overflowed.pixels
+        );
+    }
     if let Some(last) = stats.report.last() {
         let measured = last.measured.map_or(String::new(), |m| {
             format!(

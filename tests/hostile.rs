@@ -250,3 +250,39 @@ fn a_device_name_says_where_it_came_from_and_is_no_stray_letter() {
     args.extend([out, "--device", "p"]);
     refused(&run(None, &args), "no OpenCL device matches `p`");
 }
+
+#[test]
+fn pixels_whose_sums_overflow_are_named_not_silent() {
+    let dir = scratch("overflow");
+    let scene = dir.join("bright.txt");
+    // An emission that fits f32 (the parser takes it), whose sum over a few samples does not.
+    std::fs::write(
+        &scene,
+        "PerspectiveCamera { center 0 0 0 direction 0 0 -1 angle 30 width 4 height 4 }\n\
+         Materials { numMaterials 1 Material { emission 1e38 1e38 1e38 color 0 0 0 } }\n\
+         Group { numObjects 1 MaterialIndex 0 Sphere { center 0 0 -10 radius 100 } }\n",
+    )
+    .unwrap();
+    let out = dir.join("x.pfm");
+    let run = clpt(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--spp",
+        "8",
+        "--light-sampling",
+        "off",
+        "--rr-threshold",
+        "1",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("16 pixels are infinite in the image")
+            && stderr.contains("overflowed f32")
+            && stderr.contains("the first at pixel (0, 0)"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -246,6 +246,9 @@ pub struct RenderStats {
     pub choice: Choice,
     /// Samples that were not finite, left out of the film (each counts as 0).
     pub nonfinite: NonFinite,
+    /// Pixels whose samples were finite but whose sum is not: it overflowed f32 (an emission
+    /// near f32's largest value), so the pixel is infinite in the image.
+    pub overflowed: Overflowed,
     /// The pass callback ended the render before its sample count or time limit.
     pub stopped: bool,
 }
@@ -257,6 +260,33 @@ pub struct NonFinite {
     pub count: u64,
     /// The first: (x, y from the top row, sample index), by sample index then pixel.
     pub first: Option<(u32, u32, u32)>,
+}
+
+/// Pixels of a film whose sum is not finite though every sample added to it was.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Overflowed {
+    pub pixels: u64,
+    /// The first, from the top left: (x, y from the top row).
+    pub first: Option<(u32, u32)>,
+}
+
+impl Overflowed {
+    /// The pixels of `film` whose sum is infinite or NaN.
+    pub fn of(film: &Film) -> Overflowed {
+        let width = film.width as usize;
+        let mut out = Overflowed::default();
+        // Top row first, as the image is written and as `first` is given.
+        for row in (0..film.height as usize).rev() {
+            for x in 0..width {
+                let sum = film.sum[row * width + x];
+                if !sum[..3].iter().all(|c| c.is_finite()) {
+                    out.pixels += 1;
+                    out.first = out.first.or(Some((x as u32, film.height - 1 - row as u32)));
+                }
+            }
+        }
+        out
+    }
 }
 
 /// One program of the render kernel: with light sampling compiled in, or without.
@@ -923,6 +953,7 @@ impl<'d> Renderer<'d> {
         let elapsed = start.elapsed();
         let film = self.read_film(spp_done)?;
         let nonfinite = self.nonfinite()?;
+        let overflowed = Overflowed::of(&film);
         Ok((
             film,
             RenderStats {
@@ -934,6 +965,7 @@ impl<'d> Renderer<'d> {
                 report,
                 choice,
                 nonfinite,
+                overflowed,
                 stopped,
             },
         ))
