@@ -1206,6 +1206,37 @@ fn composed_transforms_beyond_f32_fail_at_the_object() {
     }
 }
 
+/// A transform is singular by its axes' own lengths, not by its largest entry: scales of any
+/// size on any axis, and far translations, load (they were "singular"); collapsed or nearly
+/// aligned axes do not.
+#[test]
+fn singular_transforms_are_judged_by_their_own_axes() {
+    let sphere = "Sphere { center 0 0 0 radius 1 }";
+    for ops in [
+        "UniformScale 1e-4",
+        "Scale 1 1e20 1",
+        "Scale 1e-6 1 1e6",
+        "Translate 1e5 0 0 UniformScale 1e-3",
+        "Translate 0 1e4 0",
+        "UniformScale 1e30 UniformScale 1e-35",
+    ] {
+        let text = with_group(&format!("numObjects 1 Transform {{ {ops} {sphere} }}"));
+        if let Err(e) = parse_scene(&text, "fine") {
+            panic!("{ops}: {e}");
+        }
+    }
+    for ops in [
+        "Scale 1 0 1",
+        // Columns (1, 0, 0), (1, 1e-8, 0), (0, 0, 1): two axes all but aligned.
+        "Matrix4f { 1 0 0 0 1 1e-8 0 0 0 0 1 0 0 0 0 1 }",
+        "Matrix4f { 1 2 3 0 2 4 6 0 0 0 1 0 0 0 0 1 }",
+    ] {
+        let text = with_group(&format!("numObjects 1 Transform {{ {ops} {sphere} }}"));
+        let err = parse_scene(&text, "t.txt").unwrap_err().to_string();
+        assert!(err.contains("singular or nearly so"), "{ops}: {err}");
+    }
+}
+
 /// A `Matrix4f` whose bottom row (numbers 4, 8, 12 and 16, read column by column) is not
 /// 0 0 0 1 is an error at the first number that breaks it; its projective row was dropped.
 #[test]

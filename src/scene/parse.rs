@@ -488,17 +488,20 @@ fn transform_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<(Shap
         return Err(cur.error_at(keyword, "`Transform` without an object".into()));
     };
     let m = inner_m.map_or(m, |i| m * i);
-    // Singular relative to the matrix's own scale: |det| against the cube of the largest entry
-    // of its linear part (a translation, however far, flattens nothing).
-    let scale = [m.x_axis, m.y_axis, m.z_axis]
-        .iter()
-        .flat_map(|c| c.truncate().to_array())
-        .fold(0.0f64, |a, b| a.max(b.abs()));
+    // Singular relative to the linear part's own scale, axis by axis: |det| against the product
+    // of the lengths of its columns (Hadamard's inequality bounds it by that product, with
+    // equality for orthogonal axes), so any uniform or per-axis scale (1e-4, or 1 1e20 1) and any
+    // translation pass, and only axes that collapse or nearly line up fail. Below 1e-6 an f32
+    // inverse keeps no digit of the flattened direction.
+    let axes = [m.x_axis, m.y_axis, m.z_axis].map(|c| c.truncate());
+    let lengths: f64 = axes.iter().map(|a| a.length()).product();
     let det = m.determinant();
-    if !det.is_finite() || det.abs() <= 1e-12 * scale.powi(3) {
+    if !det.is_finite() || lengths == 0.0 || det.abs() <= 1e-6 * lengths {
         return Err(cur.error_at(
             keyword,
-            "this `Transform` is singular (a zero scale?): objects would be flattened".into(),
+            "this `Transform` is singular or nearly so (a zero scale, or axes that line up): \
+             objects would be flattened"
+                .into(),
         ));
     }
     Ok((shape, Some(m)))
