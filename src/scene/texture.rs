@@ -470,9 +470,12 @@ mod tests {
         );
         assert!(check_memory(w, h, decoded, Some(40 << 30), 1 << 40).is_ok());
         assert!(check_memory(w, h, decoded, None, 1 << 40).is_ok());
-        // An 8-bit RGB image needs its copy and the texel list: 6 bytes a pixel.
-        assert!(check_memory(1000, 1000, 3_000_000, Some(5_999_999), 1 << 26).is_err());
-        assert!(check_memory(1000, 1000, 3_000_000, Some(6_000_000), 1 << 26).is_ok());
+        // An 8-bit RGB image needs 6 bytes a pixel: its pixels with the RGB copy (the same
+        // buffer here), then that copy with the texel list; an 8-bit grey one as many.
+        for decoded in [3_000_000, 1_000_000] {
+            assert!(check_memory(1000, 1000, decoded, Some(5_999_999), 1 << 26).is_err());
+            assert!(check_memory(1000, 1000, decoded, Some(6_000_000), 1 << 26).is_ok());
+        }
     }
 
     #[test]
