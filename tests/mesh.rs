@@ -836,6 +836,16 @@ fn obj_errors_name_their_line() {
             "v 0 0 0\nusemtl\n",
             ":2: `usemtl` needs a material name",
         ),
+        (
+            "far.obj",
+            "v 0 0 0\nv 2e18 0 0\nv 0 1 0\nf 1 2 3\n",
+            ":2: a coordinate of `v 2e18 0 0` is over 1e18 in size",
+        ),
+        (
+            "farw.obj",
+            "v 0 0 0\nv 1 0 0 1e-19\nv 0 1 0\nf 1 2 3\n",
+            ":2: a coordinate of `v 1 0 0 1e-19` is over 1e18",
+        ),
     ] {
         std::fs::write(dir.join(name), text).unwrap();
         let err = TriangleMesh::load(&dir.join(name)).unwrap_err().to_string();
@@ -869,6 +879,15 @@ fn obj_errors_name_their_line() {
     std::fs::write(dir.join("bom.obj"), bom).unwrap();
     let mesh = TriangleMesh::load(&dir.join("bom.obj")).unwrap();
     assert_eq!((mesh.positions.len(), mesh.triangles.len()), (3, 1));
+    // The largest coordinate accepted; normals of any finite length give their direction.
+    let edge = "v 0 0 0\nv 1e18 0 0\nv 0 -1e18 0\nvn 0 0 1e30\nvn 0 0 1e-30\nvn 0 3e38 0\n\
+                f 1//1 2//2 3//3\n";
+    std::fs::write(dir.join("edge.obj"), edge).unwrap();
+    let mesh = TriangleMesh::load(&dir.join("edge.obj")).unwrap();
+    assert_eq!(
+        mesh.normals,
+        Some(vec![[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+    );
     std::fs::remove_dir_all(dir).ok();
 }
 

@@ -34,6 +34,12 @@ pub const DEFAULT_MAX_FILE_BYTES: u64 = 1 << 30;
 /// scene together in 32 bits.
 pub const MAX_VERTICES: usize = (u32::MAX / 2) as usize;
 
+/// The largest vertex coordinate accepted, in size. The kernels multiply differences of
+/// coordinates in f32 (edge cross products in `kernels/objects.h`, the watertight test's 2x2
+/// determinants in `kernels/triangle.h`), which overflow from about 1.8e19 on: a triangle
+/// with corners at ±1e19, facing the camera in front of a light, rendered black.
+pub const MAX_COORDINATE: f32 = 1e18;
+
 /// A mesh as the kernels need it: f32 positions, optional per-vertex normals, index triples.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TriangleMesh {
@@ -189,9 +195,17 @@ fn check_lines(path: &Path, text: &str, max_vertices: usize, max_triangles: usiz
                     numbers.len().min(3)
                 };
                 check_numbers(&numbers[..checked]).map_err(&fail)?;
-                if !divides_finitely(&numbers) {
+                let stored = stored_coordinates(&numbers).unwrap_or_default();
+                if !stored.iter().all(|c| c.is_finite()) {
                     return Err(fail(format!(
                         "dividing by w leaves a coordinate beyond the range of f32: `{}`",
+                        quoted(line.trim())
+                    )));
+                }
+                if stored.iter().any(|c| c.abs() > MAX_COORDINATE) {
+                    return Err(fail(format!(
+                        "a coordinate of `{}` is over {MAX_COORDINATE:e} in size: the device \
+                         multiplies coordinate differences in f32, which would overflow",
                         quoted(line.trim())
                     )));
                 }
@@ -242,14 +256,21 @@ fn check_numbers(words: &[&str]) -> std::result::Result<(), String> {
     Ok(())
 }
 
-/// `v x y z w`: tobj divides x, y and z by w in f32; false when a quotient overflows
-/// (`v 1e30 0 0 1e-30`). w = 0 is left to tobj, which refuses it.
-fn divides_finitely(numbers: &[&str]) -> bool {
-    let parsed: Option<Vec<f32>> = numbers.iter().map(|s| s.parse().ok()).collect();
-    match parsed.as_deref() {
-        Some(&[x, y, z, w]) if w != 0.0 => [x, y, z].iter().all(|c| (c / w).is_finite()),
-        _ => true,
-    }
+/// The coordinates tobj stores for `v x y z [w]`: divided by w in f32 when a fourth number
+/// is all that follows (six are x y z r g b); `None` where it cannot read them (it refuses
+/// those, as it does w = 0, which is left undivided here).
+fn stored_coordinates(numbers: &[&str]) -> Option<[f32; 3]> {
+    let count = if numbers.len() == 4 { 4 } else { 3 };
+    let parsed: Vec<f32> = numbers
+        .get(..count)?
+        .iter()
+        .map(|s| s.parse().ok())
+        .collect::<Option<_>>()?;
+    let w = match parsed.get(3) {
+        Some(&w) if w != 0.0 => w,
+        _ => 1.0,
+    };
+    Some([parsed[0] / w, parsed[1] / w, parsed[2] / w])
 }
 
 /// The models of the file by tobj, with an error naming the line where it failed.
@@ -471,9 +492,18 @@ fn usable_normal(n: [f32; 3]) -> bool {
     n.iter().all(|c| c.is_finite()) && n.iter().any(|&c| c != 0.0)
 }
 
+/// `n` at unit length; in f64 where f32 would overflow or underflow (a normal of length 1e30
+/// or 1e-30 came out zero or NaN), so any finite non-zero normal gives its direction.
 fn normalized(n: [f32; 3]) -> [f32; 3] {
     let v = glam::Vec3::from(n).normalize();
-    v.to_array()
+    if v.is_finite() && v != glam::Vec3::ZERO {
+        v.to_array()
+    } else {
+        glam::DVec3::from(n.map(f64::from))
+            .normalize()
+            .as_vec3()
+            .to_array()
+    }
 }
 
 /// Text from a file as messages quote it: at most 60 characters (then `…`), with control
