@@ -104,11 +104,34 @@ pub enum Error {
         flag: &'static str,
     },
 
+    /// A name a scene gives (a texture, a mesh) that is there but is no file to read: a
+    /// directory, a device or a pipe.
+    #[error(
+        "{location}: {what} file `{written}` is {kind} ({})",
+        path.display()
+    )]
+    NotAFile {
+        what: &'static str,
+        location: Location,
+        written: String,
+        path: PathBuf,
+        kind: &'static str,
+    },
+
     #[error("image {}: {message}", path.display())]
     Image { path: PathBuf, message: String },
 
     #[error("mesh {}: {message}", path.display())]
     Mesh { path: PathBuf, message: String },
+
+    /// Something wrong on one line of an OBJ file (and column, where one is known).
+    #[error("mesh {}:{}: {message}", path.display(), line_and_column(*line, *column))]
+    MeshLine {
+        path: PathBuf,
+        line: usize,
+        column: Option<usize>,
+        message: String,
+    },
 
     #[error("kernel source: {0}")]
     KernelSource(String),
@@ -193,6 +216,38 @@ fn concise_opencl_message(text: &str) -> String {
     ) {
         (Some(function), Some(status)) => format!("{function} failed with {status}"),
         _ => text.trim().to_string(),
+    }
+}
+
+/// `12` or `12:5`.
+fn line_and_column(line: usize, column: Option<usize>) -> String {
+    match column {
+        Some(column) => format!("{line}:{column}"),
+        None => line.to_string(),
+    }
+}
+
+/// What a path that is not a regular file is, for messages: "a directory", "a named pipe", ...
+pub fn file_kind(file_type: std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if file_type.is_fifo() {
+            return "a named pipe";
+        }
+        if file_type.is_char_device() || file_type.is_block_device() {
+            return "a device";
+        }
+        if file_type.is_socket() {
+            return "a socket";
+        }
+    }
+    if file_type.is_dir() {
+        "a directory"
+    } else if file_type.is_file() {
+        "a file"
+    } else {
+        "not a regular file"
     }
 }
 

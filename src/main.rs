@@ -194,6 +194,9 @@ struct SamplingArgs {
     /// Largest scene file read, in bytes.
     #[arg(long, value_name = "BYTES", default_value_t = clpt::scene::DEFAULT_MAX_SCENE_BYTES)]
     max_scene_bytes: u64,
+    /// Largest OBJ mesh file read, in bytes.
+    #[arg(long, default_value_t = clpt::scene::mesh::DEFAULT_MAX_FILE_BYTES)]
+    max_mesh_bytes: u64,
     /// Object BVH: auto (from 32 objects on), on, or off (test every object in turn).
     #[arg(long, default_value = "auto")]
     object_bvh: ObjectBvh,
@@ -363,6 +366,7 @@ fn options(
         rr_depth: sampling.rr_depth,
         texture_filter: sampling.texture_filter,
         max_texture_pixels: sampling.max_texture_pixels,
+        max_mesh_bytes: sampling.max_mesh_bytes,
         object_bvh: sampling.object_bvh,
         light_sampling: if sampling.no_nee {
             LightSampling::Off

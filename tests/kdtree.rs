@@ -5,12 +5,15 @@
 //! mesh, from inside, axis-aligned, with short [t_min, t_max]), the tree's structure (every
 //! triangle referenced, every leaf's triangles overlapping its box, splits inside their boxes,
 //! references in range, depth), SAH cost against the original's median tree, deterministic and
-//! O(n log n) builds, and meshes that are empty or all broken.
+//! O(n log n) builds, and meshes that are empty or all broken. Hostile meshes (issue 14): a
+//! pile of 100k overlapping copies of a triangle, copies of one triangle, triangles crossing
+//! each other all over a cube, and a tree held to a small entry budget, all against brute
+//! force.
 
 mod common;
 
 use clpt::accel::aabb::Aabb;
-use clpt::accel::kdtree::{self, KdParams, KdTree, MAX_DEPTH};
+use clpt::accel::kdtree::{self, ENTRY_SLACK, KdParams, KdTree, MAX_DEPTH};
 use glam::DVec3;
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
@@ -120,6 +123,55 @@ fn soup(n: usize, seed: u64) -> Mesh {
         positions,
         triangles,
     }
+}
+
+/// `n` copies of the triangle (0, 0, 0), (1, 0, 0), (0, 1, 0), each vertex moved by up to
+/// `jitter` on every axis (0: identical copies): a pile where every point of the triangle lies
+/// on nearly every copy.
+fn pile(n: usize, jitter: f32, seed: u64) -> Mesh {
+    let mut rng = SmallRng::seed_from_u64(seed);
+    let mut positions = Vec::new();
+    for _ in 0..n {
+        for v in [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+            positions.push(v.map(|c| c + rng.random::<f32>() * jitter));
+        }
+    }
+    let triangles = (0..n as u32)
+        .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+        .collect();
+    Mesh {
+        name: format!("pile of {n} moved by {jitter}"),
+        positions,
+        triangles,
+    }
+}
+
+/// `n` triangles with vertices anywhere in the unit cube: large triangles crossing one another
+/// everywhere, so no plane takes any of them off a cell without cutting most of the others.
+fn crossing(n: usize, seed: u64) -> Mesh {
+    let mut rng = SmallRng::seed_from_u64(seed);
+    let positions = (0..3 * n)
+        .map(|_| {
+            [
+                rng.random::<f32>(),
+                rng.random::<f32>(),
+                rng.random::<f32>(),
+            ]
+        })
+        .collect();
+    let triangles = (0..n as u32)
+        .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+        .collect();
+    Mesh {
+        name: format!("{n} crossing triangles"),
+        positions,
+        triangles,
+    }
+}
+
+/// Entries of a tree: nodes and leaf references.
+fn entries(tree: &KdTree) -> usize {
+    tree.nodes.len() + tree.indices.len()
 }
 
 /// Adds the parallelogram origin + [0, 1] u + [0, 1] v as a `cells` × `cells` grid of squares,
@@ -758,4 +810,109 @@ fn dragon_build_times_and_sizes() {
             "{name}: SAH tree costs more than the median tree"
         );
     }
+}
+
+/// SAH counts time, not memory: on a pile of overlapping triangles it keeps halving cells that
+/// each keep nearly the whole pile. Splits of large nodes may add only 16 entries per
+/// triangle, so even with the tree's entry bound off the pile's tree stays small (it grew to
+/// gigabytes before that), and the tree still finds every nearest hit. Copies of one triangle
+/// make one leaf: no plane separates them.
+#[test]
+fn piles_of_overlapping_triangles_make_small_trees_that_match_brute_force() {
+    let _serial = serial();
+    let mesh = pile(100_000, 1e-4, 21);
+    let unbounded = KdParams {
+        max_entries_per_triangle: usize::MAX,
+        ..KdParams::default()
+    };
+    let start = Instant::now();
+    let tree = KdTree::build(&mesh.positions, &mesh.triangles, &unbounded);
+    let seconds = start.elapsed().as_secs_f64();
+    let n = mesh.triangles.len();
+    println!(
+        "{}: built in {seconds:.2} s, {:?}",
+        mesh.name,
+        tree.stats(&mesh.positions, &mesh.triangles)
+    );
+    // The root's references, and at most 16 per triangle from splits of large nodes; the
+    // pile has next to no small nodes, whose splits are not counted.
+    assert!(
+        entries(&tree) <= 17 * n + ENTRY_SLACK,
+        "{}: {} entries",
+        mesh.name,
+        entries(&tree)
+    );
+    assert!(seconds < 20.0, "{}: built in {seconds:.1} s", mesh.name);
+    check_structure(&mesh, &tree, auto_depth(n));
+    check_against_brute_force(&mesh, &tree, 2000, 22);
+    assert!(tree == mesh.tree(), "the entry bound does not bind here");
+
+    let copies = pile(20_000, 0.0, 23);
+    let tree = copies.tree();
+    check_structure(&copies, &tree, auto_depth(1));
+    assert_eq!(
+        (tree.nodes.len(), tree.indices.len()),
+        (1, 20_000),
+        "copies of one triangle: one leaf"
+    );
+    check_against_brute_force(&copies, &tree, 2000, 24);
+}
+
+/// Where SAH would stop, a node of more than 16 triangles is split at the most even plane when
+/// the cheapest one only shaves a triangle off one side: a chain of such slivers reached the
+/// depth limit with all 20000 crossing triangles in one leaf, slower than testing them all.
+/// Now the tree beats brute force by far (18 times on the host, where it was slower).
+#[test]
+fn crossing_triangles_get_small_leaves() {
+    let _serial = serial();
+    let mesh = crossing(20_000, 25);
+    let (tree, _) = build_and_check(&mesh);
+    let rays = rays(&mesh.valid_bounds(), 2000, 26);
+    let time = |f: &(dyn Fn(&Ray) -> Option<(f64, u32)> + Sync)| {
+        let start = Instant::now();
+        let hits = on_all_cores(&rays, f);
+        (hits, start.elapsed().as_secs_f64())
+    };
+    let (got, tree_seconds) =
+        time(&|r| tree.intersect(&mesh.positions, &mesh.triangles, r.0, r.1, r.2, r.3));
+    let (want, brute_seconds) = time(&|r| mesh.brute_force(r.0, r.1, r.2, r.3));
+    println!(
+        "{}: 2000 rays, tree {:.1} ms, brute force {:.1} ms",
+        mesh.name,
+        tree_seconds * 1e3,
+        brute_seconds * 1e3
+    );
+    assert_eq!(
+        compare(&mesh, "kd-tree and brute force", &rays, &got, &want),
+        0
+    );
+    assert!(
+        tree_seconds * 5.0 < brute_seconds,
+        "{}: the tree is not 5 times faster than brute force",
+        mesh.name
+    );
+}
+
+/// A tree that would hold more entries than `max_entries_per_triangle` allows is built again
+/// shallower until it fits, and still finds every nearest hit.
+#[test]
+fn a_tree_over_its_entry_budget_is_built_shallower() {
+    let _serial = serial();
+    let mesh = icosphere(5);
+    let n = mesh.triangles.len();
+    let limit = 2 * n + ENTRY_SLACK;
+    assert!(entries(&mesh.tree()) > limit, "the bound must bind");
+    let params = KdParams {
+        max_entries_per_triangle: 2,
+        ..KdParams::default()
+    };
+    let tree = KdTree::build(&mesh.positions, &mesh.triangles, &params);
+    println!(
+        "{}: {:?}",
+        mesh.name,
+        tree.stats(&mesh.positions, &mesh.triangles)
+    );
+    assert!(entries(&tree) <= limit, "{} entries", entries(&tree));
+    check_structure(&mesh, &tree, auto_depth(n));
+    check_against_brute_force(&mesh, &tree, 20_000, 27);
 }

@@ -2,7 +2,7 @@
 //! vertices of closed meshes never pass through), the kd-tree and BVH traversal against brute
 //! force in f64 (generated meshes; the Stanford dragon when ../shared/seed is there), transforms
 //! of spheres, planes and meshes against f64 for every op and compositions, instancing, and bad
-//! OBJ input.
+//! OBJ input (errors at their line, file limits, directories, copies of triangles dropped).
 
 mod common;
 
@@ -588,7 +588,10 @@ fn bad_meshes_and_transforms_are_clear_errors() {
     let err = load("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
         .unwrap_err()
         .to_string();
-    assert!(err.contains("range.obj"), "{err}");
+    assert!(
+        err.contains("range.obj:4: corner `9` names vertex 9"),
+        "{err}"
+    );
     let err = load("nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n")
         .unwrap_err()
         .to_string();
@@ -749,4 +752,198 @@ fn rays_from_outside_never_reach_the_inside_of_the_trefoil() {
          {spawned_on_knot} spawned rays that hit the knot again, {inside} hit it from inside"
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Every OBJ error that lies on a line names `path:line` (and the column for bytes that are
+/// not UTF-8), with the offending text quoted and escaped; tobj reports no line.
+#[test]
+fn obj_errors_name_their_line() {
+    let dir = temp_dir("lines");
+    let triangle = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    for (name, text, want) in [
+        (
+            "nan.obj",
+            "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n",
+            ":2: `nan` is not a finite number",
+        ),
+        (
+            "inf.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 -inf 0\nf 1 2 3\n",
+            ":3: `-inf` is not a finite",
+        ),
+        (
+            "f32.obj",
+            "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n",
+            ":2: `1e39` is beyond the range of f32",
+        ),
+        (
+            "normal.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 -1e39\nf 1 2 3\n",
+            ":4: `-1e39` is beyond",
+        ),
+        (
+            "w.obj",
+            "v 0 0 0\nv 1 0 0 1e-40\nv 0 1 0\nf 1 2 3\n",
+            ":2: dividing by w leaves a coordinate beyond the range of f32: `v 1 0 0 1e-40`",
+        ),
+        (
+            "w0.obj",
+            "v 0 0 0\nv 1 0 0 0\nv 0 1 0\nf 1 2 3\n",
+            ":2: a vertex with w = 0: `v 1 0 0 0`",
+        ),
+        (
+            "word.obj",
+            "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n",
+            ":2: a vertex needs three numbers: `v 1 zero 0`",
+        ),
+        (
+            "face.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 x\n",
+            ":5: a face corner is `v`, `v/vt`, `v//vn` or `v/vt/vn` in whole numbers: `f 1 2 x`",
+        ),
+        (
+            "earlier.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\no a\nf 1 2 3\nf 3 2 7\no b\nv 0 0 1\nf 1 2 4\n",
+            ":6: corner `7` names vertex 7; the file defines 3 by the end of its object",
+        ),
+        (
+            "back.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n",
+            ":4: corner `-4` counts back 4 to a vertex before the first",
+        ),
+        (
+            "zero.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",
+            ":4: corner `0` names vertex 0",
+        ),
+        (
+            "vn.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//2\n",
+            ":5: corner `3//2` names normal 2; the file defines 1",
+        ),
+        (
+            "nocorner.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf\n",
+            ":5: a face without corners",
+        ),
+        (
+            "hidden.obj",
+            "v 0 0 0\nv 1 0 \u{200b}0\nv 0 1 0\nf 1 2 3\n",
+            ":2: a vertex needs three numbers: `v 1 0 \\u{200b}0`",
+        ),
+        (
+            "usemtl.obj",
+            "v 0 0 0\nusemtl\n",
+            ":2: `usemtl` needs a material name",
+        ),
+        (
+            "far.obj",
+            "v 0 0 0\nv 2e18 0 0\nv 0 1 0\nf 1 2 3\n",
+            ":2: a coordinate of `v 2e18 0 0` is over 1e18 in size",
+        ),
+        (
+            "farw.obj",
+            "v 0 0 0\nv 1 0 0 1e-19\nv 0 1 0\nf 1 2 3\n",
+            ":2: a coordinate of `v 1 0 0 1e-19` is over 1e18",
+        ),
+    ] {
+        std::fs::write(dir.join(name), text).unwrap();
+        let err = TriangleMesh::load(&dir.join(name)).unwrap_err().to_string();
+        assert!(err.contains(&format!("{name}{want}")), "{name}: {err}");
+    }
+    // A Latin-1 byte in a comment: line and column (characters).
+    std::fs::write(
+        dir.join("latin1.obj"),
+        b"v 0 0 0\n# \xe9t\xe9\nv 1 0 0\n".as_slice(),
+    )
+    .unwrap();
+    let err = TriangleMesh::load(&dir.join("latin1.obj"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("latin1.obj:2:3: byte 0xE9 is not UTF-8 text"),
+        "{err}"
+    );
+    let long = format!("v 0 0 {}\n", "9".repeat(100_000));
+    std::fs::write(dir.join("long.obj"), format!("{triangle}{long}f 1 2 3\n")).unwrap();
+    let err = TriangleMesh::load(&dir.join("long.obj"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains(":4: `999") && err.contains("…`") && err.len() < 300,
+        "{err}"
+    );
+    // A byte-order mark is not part of the first statement; a material library is never
+    // opened (this one would be read forever).
+    let bom = format!("\u{feff}mtllib /dev/zero\n{triangle}f 1 2 3\n");
+    std::fs::write(dir.join("bom.obj"), bom).unwrap();
+    let mesh = TriangleMesh::load(&dir.join("bom.obj")).unwrap();
+    assert_eq!((mesh.positions.len(), mesh.triangles.len()), (3, 1));
+    // The largest coordinate accepted; normals of any finite length give their direction.
+    let edge = "v 0 0 0\nv 1e18 0 0\nv 0 -1e18 0\nvn 0 0 1e30\nvn 0 0 1e-30\nvn 0 3e38 0\n\
+                f 1//1 2//2 3//3\n";
+    std::fs::write(dir.join("edge.obj"), edge).unwrap();
+    let mesh = TriangleMesh::load(&dir.join("edge.obj")).unwrap();
+    assert_eq!(
+        mesh.normals,
+        Some(vec![[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+    );
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// Copies of a triangle (the same corners in the same turning order, from any corner) are
+/// dropped at load and counted; the reversed order is a surface of its own (it turns the
+/// other way for glass) and stays.
+#[test]
+fn copies_of_triangles_are_dropped_and_counted() {
+    let dir = temp_dir("copies");
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 0\nv 2 2 2\n\
+                f 1 2 3\nf 2 3 1\nf 4 2 3\nf 1 3 2\nf 3 1 2\nf 1 1 2\nf 1 2 5\n";
+    std::fs::write(dir.join("copies.obj"), text).unwrap();
+    let mesh = TriangleMesh::load(&dir.join("copies.obj")).unwrap();
+    assert_eq!(
+        (mesh.triangles.len(), mesh.degenerate, mesh.duplicates),
+        (3, 1, 3),
+        "{:?}",
+        mesh.triangles
+    );
+    assert_eq!(mesh.triangles[..2], [[0, 1, 2], [0, 2, 1]]);
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// OBJ files over the size limit, directories and devices are refused by name before
+/// anything is read.
+#[test]
+fn oversized_and_non_files_are_refused_as_such() {
+    let dir = temp_dir("limits");
+    let path = dir.join("ok.obj");
+    std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let len = std::fs::metadata(&path).unwrap().len();
+    assert!(TriangleMesh::load_within(&path, len).is_ok());
+    let err = TriangleMesh::load_within(&path, len - 1)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains(&format!("the file is {len} bytes"))
+            && err.contains(&format!("over the limit of {}", len - 1))
+            && err.contains("--max-mesh-bytes"),
+        "{err}"
+    );
+    let err = TriangleMesh::load(&dir).unwrap_err().to_string();
+    assert!(err.contains("this is a directory, not a file"), "{err}");
+    let err = TriangleMesh::load(Path::new("/dev/zero"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("this is a device, not a file"), "{err}");
+    // Named in a scene: the place where it was found.
+    std::fs::create_dir_all(dir.join("x.obj")).unwrap();
+    let path = dir.join("scene.txt");
+    std::fs::write(&path, "PerspectiveCamera { center 0 0 10 direction 0 0 -1 angle 30 width 8 height 8 }\nMaterials { numMaterials 1 Material { } }\nGroup { numObjects 1 Mesh { obj_file x.obj } }\n").unwrap();
+    let scene = Scene::load(&path).unwrap();
+    let err = PackedScene::new(&scene, u64::MAX).unwrap_err().to_string();
+    assert!(
+        err.contains("scene.txt:3:22: mesh file `x.obj` is a directory ("),
+        "{err}"
+    );
+    std::fs::remove_dir_all(dir).ok();
 }

@@ -122,7 +122,7 @@ fn bad_images_are_errors_never_panics() {
         .unwrap();
     let png = std::fs::read(&png_path).unwrap();
     for (name, bytes, fragment) in [
-        ("truncated.ppm", p6[..p6.len() - 5].to_vec(), ""),
+        ("truncated.ppm", p6[..p6.len() - 5].to_vec(), "cut short"),
         ("header.ppm", b"P6\nabc 4\n255\n".to_vec(), ""),
         ("empty.ppm", b"P6\n0 0\n255\n".to_vec(), ""),
         ("zero.ppm", b"P3\n0 3\n255\n".to_vec(), ""),
@@ -152,6 +152,77 @@ fn bad_images_are_errors_never_panics() {
     assert!(err.contains("5000 pixels") && err.contains("4999"), "{err}");
     assert!(texture::decode(&big, 5000).is_ok());
     std::fs::remove_dir_all(dir).ok();
+}
+
+/// A header claiming a huge image in a tiny file, with the pixel limit raised: refused for
+/// being too short before anything is allocated (a 69-byte PPM claiming 100000x100000 pixels
+/// aborted the process allocating 30 GB). So are files over the size limit, and directories.
+#[test]
+fn headers_claiming_more_than_the_file_holds_are_refused_before_allocating() {
+    let dir = temp_dir("claims");
+    let mut ppm = b"P6\n100000 100000\n255\n".to_vec();
+    ppm.resize(69, 0);
+    let path = dir.join("huge.ppm");
+    std::fs::write(&path, &ppm).unwrap();
+    let err = decode(&path).unwrap_err().to_string();
+    assert!(err.contains("over the limit of 67108864"), "{err}");
+    let err = texture::decode(&path, u64::MAX).unwrap_err().to_string();
+    assert!(
+        err.contains("the file is 69 bytes, too short for the 100000x100000 image")
+            && err.contains("at least 30000000000 bytes"),
+        "{err}"
+    );
+    // A PNG: its rows deflate at most 1032 to 1, of 1-bit samples at the smallest.
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    let chunk = |png: &mut Vec<u8>, kind: &[u8], data: &[u8]| {
+        png.extend((data.len() as u32).to_be_bytes());
+        let body = [kind, data].concat();
+        png.extend(&body);
+        png.extend(crc32(&body).to_be_bytes());
+    };
+    let ihdr = [
+        &60000u32.to_be_bytes()[..],
+        &60000u32.to_be_bytes(),
+        &[16, 6, 0, 0, 0],
+    ]
+    .concat();
+    chunk(&mut png, b"IHDR", &ihdr);
+    chunk(&mut png, b"IDAT", &[0; 1000]);
+    chunk(&mut png, b"IEND", &[]);
+    std::fs::write(dir.join("huge.png"), &png).unwrap();
+    let err = texture::decode(&dir.join("huge.png"), u64::MAX)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("too short for the 60000x60000 image"), "{err}");
+    // The size limit follows the pixel limit: 32 bytes a pixel and 64 MiB.
+    let sparse = dir.join("sparse.ppm");
+    let file = std::fs::File::create(&sparse).unwrap();
+    file.set_len(texture::max_file_bytes(16) + 1).unwrap();
+    let err = texture::decode(&sparse, 16).unwrap_err().to_string();
+    assert!(
+        err.contains(&format!("over the limit of {}", (64 << 20) + 512))
+            && err.contains("--max-texture-pixels"),
+        "{err}"
+    );
+    let err = decode(&dir).unwrap_err().to_string();
+    assert!(err.contains("this is a directory, not a file"), "{err}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// CRC-32 (ISO 3309, as PNG chunks use), bit by bit.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = !0u32;
+    for &b in bytes {
+        crc ^= u32::from(b);
+        for _ in 0..8 {
+            crc = if crc & 1 == 1 {
+                (crc >> 1) ^ 0xEDB8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    !crc
 }
 
 #[test]
@@ -224,6 +295,14 @@ fn texture_paths_resolve_in_order_and_list_what_was_tried() {
     assert_eq!(
         found("texture/b.ppm").unwrap(),
         scenes.join("texture/b.ppm")
+    );
+    // A directory of the name is named as such, where no file is found.
+    std::fs::create_dir_all(scenes.join("texture/dir.ppm")).unwrap();
+    let err = found("texture/dir.ppm").unwrap_err().to_string();
+    assert!(
+        err.starts_with("s.txt:3:9: texture file `texture/dir.ppm` is a directory (")
+            && err.contains(&scenes.join("texture/dir.ppm").display().to_string()),
+        "{err}"
     );
     let err = found("texture/missing.ppm").unwrap_err().to_string();
     assert!(

@@ -21,6 +21,14 @@
 //! - Leaves end where SAH says a split no longer pays (with a depth limit that grows with
 //!   log n), not at a fixed depth and count, so dense parts get deep trees and empty space
 //!   gets big empty leaves.
+//! - Bounds for any input: nodes of more than 16 triangles are split even where SAH would
+//!   stop, if some plane takes triangles off both sides ([`KdParams::max_leaf_triangles`]);
+//!   splits of large nodes may duplicate at most 16 references per triangle in all
+//!   (`LARGE_SPLIT_ENTRIES_PER_TRIANGLE`), so piles of overlapping triangles stop after a
+//!   few levels; and a tree never holds more than 64 entries per triangle
+//!   ([`KdParams::max_entries_per_triangle`]; a build that would is redone shallower). A leaf
+//!   holds more than 16 triangles only where they overlap so that no plane separates them
+//!   (copies of one triangle; the mesh loader drops exact copies) or at these bounds.
 //! - Traversal ([`KdTree::intersect`], the reference for the device code) visits leaves front
 //!   to back with a small stack and stops after the first leaf whose interval holds the nearest
 //!   hit found so far: no per-ray memory for tested triangles. A hit beyond the current leaf is
@@ -44,6 +52,7 @@
 use super::aabb::Aabb;
 use crate::device::layout::KdNode;
 use glam::DVec3;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Triangles numbered at or above this are left out (a leaf stores its count in 30 bits); a
 /// mesh loader should refuse larger meshes.
@@ -60,6 +69,24 @@ const MEDIAN_LEAF_TRIANGLES: usize = 15;
 /// Nodes with at least this many triangles may hand a child to another thread.
 const PARALLEL_MIN_TRIANGLES: usize = 4096;
 
+/// Entries (nodes and leaf references) a tree may hold beyond
+/// [`KdParams::max_entries_per_triangle`] per triangle, so small meshes are never cramped.
+pub const ENTRY_SLACK: usize = 4096;
+
+/// Splits of nodes of more than [`LARGE_NODE`] triangles may add at most this many entries
+/// (the references they duplicate and their children's nodes) per triangle of the mesh,
+/// shared out in proportion to triangle counts as the tree splits.
+///
+/// SAH counts time, not memory. On a pile of triangles that overlap one another (copies of a
+/// triangle each moved a little) it splits a node in half along its long axis, each half
+/// keeping 96% of the triangles, because a ray through either half then tests 4% fewer; 30
+/// levels of that want 2^30 times the pile. The original's meshes never come near the bound:
+/// their splits above 64 triangles duplicate a few percent; 100k jittered copies of one
+/// triangle stop after 11 levels with 10 references per triangle (where a ray must still test
+/// most of the pile, which covers one spot: no tree can help that).
+const LARGE_SPLIT_ENTRIES_PER_TRIANGLE: usize = 16;
+const LARGE_NODE: usize = 64;
+
 /// The SAH build's knobs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KdParams {
@@ -74,10 +101,17 @@ pub struct KdParams {
     /// [`MAX_DEPTH`]. A node at this depth is a leaf whatever it holds.
     pub max_depth: u32,
     /// A node holding at most this many triangles becomes a leaf when SAH finds no split
-    /// cheaper than testing them all; a node holding more is split at its cheapest plane even
-    /// when SAH would rather stop, as long as that plane takes a triangle or some empty space
-    /// off one side (so splitting makes progress). `u32::MAX` leaves every decision to SAH.
+    /// cheaper than testing them all; a node holding more is split even when SAH would rather
+    /// stop, at its cheapest plane if that takes triangles off both sides, else at the plane
+    /// that leaves the larger side fewest triangles if that one does (so splitting makes
+    /// progress; a plane that only shaves one side can be taken again and again, down to the
+    /// depth limit, with the pile whole). `u32::MAX` leaves every decision to SAH.
     pub max_leaf_triangles: u32,
+    /// The most entries (8-byte nodes and 4-byte leaf references) the tree may hold per
+    /// triangle, plus [`ENTRY_SLACK`]: a build that would hold more stops and is done again
+    /// 4 levels shallower, so memory and build time stay proportional to the mesh whatever
+    /// it is. The original's meshes need 4 to 30 (block.obj's long thin triangles the most).
+    pub max_entries_per_triangle: usize,
 }
 
 impl Default for KdParams {
@@ -94,10 +128,14 @@ impl Default for KdParams {
     /// The empty bonus is the paper's. The depth limit binds (the trees reach it), but only
     /// through chains of ever smaller cells around vertices where many triangles meet (SAH sees
     /// the same picture at every scale there): a limit of 64 instead of 30 adds 27% nodes to
-    /// the dragon for the same SAH cost. The forced splits above 16 triangles change nothing on
-    /// the meshes tested, where SAH never stops above that; they bound leaves where a greedy
-    /// SAH stops early: 4000 long triangles fanned through one point make one leaf of 4000 by
-    /// SAH alone and leaves of 54 on average with them, at about the same SAH cost.
+    /// the dragon for the same SAH cost. Forced splits above 16 triangles are rare on the
+    /// original's meshes (8 in the five dragons, of 17 to 22 triangles); they bound leaves where
+    /// a greedy SAH stops early: 4000 long triangles fanned through one point make one leaf of
+    /// 4000 by SAH alone and leaves of 54 on average with them, at about the same SAH cost.
+    /// Taking the most even plane where the cheapest only shaves one side changed two nodes of
+    /// dragon_871k's tree and nothing in the other meshes; 20k random triangles spanning a
+    /// cube went from a leaf of 20000 at the depth limit (0.7 ms per ray on the host) to
+    /// leaves of 120 on average (13 µs).
     fn default() -> KdParams {
         KdParams {
             traversal_cost: 1.0,
@@ -105,6 +143,7 @@ impl Default for KdParams {
             empty_bonus: 0.2,
             max_depth: 0,
             max_leaf_triangles: 16,
+            max_entries_per_triangle: 64,
         }
     }
 }
@@ -399,12 +438,33 @@ fn merge(a: Vec<Event>, mut b: Vec<Event>) -> Vec<Event> {
     out
 }
 
+/// `entries` shared between two children of `left` and `right` triangles in proportion to
+/// their counts (plus one, for empty children): no subtree's splits take more than its
+/// node's allowance, and the tree's no more than the root's, without any order between the
+/// builder's threads.
+fn share(entries: usize, left: usize, right: usize) -> (usize, usize) {
+    let (l, r) = (left as f64 + 1.0, right as f64 + 1.0);
+    let to_left = ((entries as f64 * l / (l + r)) as usize).min(entries);
+    (to_left, entries - to_left)
+}
+
+/// What a split of a node of `count` triangles into children of `left` and `right` takes
+/// from the node's allowance: the references it duplicates and its two children's nodes, in a
+/// node of more than [`LARGE_NODE`] triangles; nothing in a smaller one.
+fn charged(count: usize, left: usize, right: usize) -> usize {
+    if count > LARGE_NODE {
+        2 + (left + right).saturating_sub(count)
+    } else {
+        0
+    }
+}
+
 /// Where a triangle goes when its node splits.
 const BOTH: u8 = 0;
 const LEFT: u8 = 1;
 const RIGHT: u8 = 2;
 
-/// The cheapest plane of a node.
+/// The plane a node splits at.
 #[derive(Clone, Copy, Debug)]
 struct Split {
     axis: usize,
@@ -414,6 +474,13 @@ struct Split {
     cost: f64,
     left: usize,
     right: usize,
+}
+
+impl Split {
+    /// The triangle count of the larger child.
+    fn larger(&self) -> usize {
+        self.left.max(self.right)
+    }
 }
 
 /// The parameters with the automatic depth resolved.
@@ -435,6 +502,37 @@ impl Costs {
         } else {
             c
         }
+    }
+}
+
+/// The entries (nodes and leaf references) a build may make, shared by its threads. Every
+/// split only adds entries, and each split's count depends on the tree alone, so a build
+/// passes the bound exactly when its whole tree would, whatever order the threads work in:
+/// the outcome stays deterministic.
+struct Budget {
+    limit: usize,
+    used: AtomicUsize,
+}
+
+impl Budget {
+    /// The budget of a tree over `triangles` with `per_triangle` entries each, its root leaf
+    /// already counted.
+    fn new(triangles: usize, per_triangle: usize) -> Budget {
+        Budget {
+            limit: triangles
+                .saturating_mul(per_triangle)
+                .saturating_add(ENTRY_SLACK),
+            used: AtomicUsize::new(triangles + 1),
+        }
+    }
+
+    /// Counts `entries` more; false once the bound is passed.
+    fn spend(&self, entries: usize) -> bool {
+        self.used.fetch_add(entries, Ordering::Relaxed) + entries <= self.limit
+    }
+
+    fn exhausted(&self) -> bool {
+        self.used.load(Ordering::Relaxed) > self.limit
     }
 }
 
@@ -480,6 +578,7 @@ type Child = ([Vec<Event>; 3], usize);
 struct SahBuilder<'a> {
     tris: &'a [Tri],
     costs: &'a Costs,
+    budget: &'a Budget,
     side: Vec<u8>,
     out: Output,
     /// Nodes shallower than this may build their above child on another thread.
@@ -487,10 +586,11 @@ struct SahBuilder<'a> {
 }
 
 impl<'a> SahBuilder<'a> {
-    fn new(tris: &'a [Tri], costs: &'a Costs, parallel_depth: u32) -> Self {
+    fn new(tris: &'a [Tri], costs: &'a Costs, budget: &'a Budget, parallel_depth: u32) -> Self {
         SahBuilder {
             tris,
             costs,
+            budget,
             side: vec![BOTH; tris.len()],
             out: Output {
                 nodes: Vec::new(),
@@ -500,25 +600,40 @@ impl<'a> SahBuilder<'a> {
         }
     }
 
-    fn node(&mut self, events: [Vec<Event>; 3], bx: Aabb, count: usize, depth: u32) {
-        let split = if depth >= self.costs.max_depth {
-            None
+    /// Builds the subtree of a node of `count` triangles whose forced splits may add
+    /// `allowance` entries; gives up, leaving a broken tree, once the budget is spent.
+    fn node(
+        &mut self,
+        events: [Vec<Event>; 3],
+        bx: Aabb,
+        count: usize,
+        allowance: usize,
+        depth: u32,
+    ) {
+        if self.budget.exhausted() {
+            return;
+        }
+        let split = if depth < self.costs.max_depth {
+            self.choose_split(&events, &bx, count, allowance)
         } else {
-            self.find_split(&events, &bx, count)
+            None
         };
         let Some(split) = split else {
-            let tris = events[0]
-                .iter()
-                .filter(|e| e.kind() != END)
-                .map(|e| self.tris[e.tri()].number)
-                .collect();
-            self.out.leaf(tris);
-            return;
+            return self.out.leaf(self.leaf_triangles(&events));
         };
         let (left, right) = self.split_events(events, &bx, &split);
         let (mut left_box, mut right_box) = (bx, bx);
         left_box.hi[split.axis] = f64::from(split.pos);
         right_box.lo[split.axis] = f64::from(split.pos);
+        // The node's two children and the references they duplicate.
+        if !self
+            .budget
+            .spend(2 + (left.1 + right.1).saturating_sub(count))
+        {
+            return;
+        }
+        let rest = allowance.saturating_sub(charged(count, left.1, right.1));
+        let (left_allowance, right_allowance) = share(rest, left.1, right.1);
         let at = self.out.nodes.len();
         self.out.nodes.push(KdNode::default());
         let mut right = Some(right);
@@ -526,14 +641,15 @@ impl<'a> SahBuilder<'a> {
         if depth < self.parallel_depth && count >= PARALLEL_MIN_TRIANGLES {
             // The above child on another thread, into its own output; if no thread can be
             // started, it is built here after the below child, as in the serial case.
-            let mut helper = SahBuilder::new(self.tris, self.costs, self.parallel_depth);
+            let mut helper =
+                SahBuilder::new(self.tris, self.costs, self.budget, self.parallel_depth);
             let joined = std::thread::scope(|s| {
                 let handle = std::thread::Builder::new().spawn_scoped(s, || {
                     if let Some((events, n)) = right.take() {
-                        helper.node(events, right_box, n, depth + 1);
+                        helper.node(events, right_box, n, right_allowance, depth + 1);
                     }
                 });
-                self.node(left.0, left_box, left.1, depth + 1);
+                self.node(left.0, left_box, left.1, left_allowance, depth + 1);
                 handle.map(|h| h.join())
             });
             match joined {
@@ -542,15 +658,39 @@ impl<'a> SahBuilder<'a> {
                 Err(_) => {}
             }
         } else {
-            self.node(left.0, left_box, left.1, depth + 1);
+            self.node(left.0, left_box, left.1, left_allowance, depth + 1);
         }
         self.out.nodes[at] = KdNode::interior(split.axis, split.pos, self.out.nodes.len() as u32);
         if let Some(sub) = helped {
             self.out.append(sub);
         }
         if let Some((events, n)) = right {
-            self.node(events, right_box, n, depth + 1);
+            self.node(events, right_box, n, right_allowance, depth + 1);
         }
+    }
+
+    /// The mesh numbers of the triangles in a node's event lists.
+    fn leaf_triangles(&self, events: &[Vec<Event>; 3]) -> Vec<u32> {
+        events[0]
+            .iter()
+            .filter(|e| e.kind() != END)
+            .map(|e| self.tris[e.tri()].number)
+            .collect()
+    }
+
+    /// The plane a node splits at, if any: the cheapest by SAH; else, in a node of more than
+    /// `max_leaf_triangles`, a forced plane or the midpoint fallback, if the entries it can
+    /// add (the split's counts bound its children's: clipping only drops triangles) fit the
+    /// node's `allowance`.
+    fn choose_split(
+        &self,
+        events: &[Vec<Event>; 3],
+        bx: &Aabb,
+        count: usize,
+        allowance: usize,
+    ) -> Option<Split> {
+        let split = self.find_split(events, bx, count)?;
+        (charged(count, split.left, split.right) <= allowance).then_some(split)
     }
 
     /// The cheapest plane strictly inside `bx` (Wald–Havran's sweep over each axis's sorted
@@ -563,6 +703,8 @@ impl<'a> SahBuilder<'a> {
         let extent = bx.extent();
         let inv_area = 1.0 / area;
         let mut best: Option<Split> = None;
+        // The plane that leaves the larger child fewest triangles, for forced splits.
+        let mut balanced: Option<Split> = None;
         for (axis, list) in events.iter().enumerate() {
             let (lo, hi) = (bx.lo[axis], bx.hi[axis]);
             let (e1, e2) = (extent[(axis + 1) % 3], extent[(axis + 2) % 3]);
@@ -590,25 +732,36 @@ impl<'a> SahBuilder<'a> {
                     } else {
                         (above, false, left, right + planar)
                     };
-                    if best.is_none_or(|b| candidate.0 < b.cost) {
-                        best = Some(Split {
-                            axis,
-                            pos,
-                            planar_left: candidate.1,
-                            cost: candidate.0,
-                            left: candidate.2,
-                            right: candidate.3,
-                        });
+                    let split = Split {
+                        axis,
+                        pos,
+                        planar_left: candidate.1,
+                        cost: candidate.0,
+                        left: candidate.2,
+                        right: candidate.3,
+                    };
+                    if best.is_none_or(|b| split.cost < b.cost) {
+                        best = Some(split);
+                    }
+                    if balanced.is_none_or(|b| split.larger() < b.larger()) {
+                        balanced = Some(split);
                     }
                 }
                 left += starts + planar;
             }
         }
         let best = best?;
-        let leaf_cost = self.costs.intersection * count as f64;
-        let progress = best.left < count || best.right < count;
-        let forced = count > self.costs.max_leaf_triangles && progress;
-        (best.cost < leaf_cost || forced).then_some(best)
+        if best.cost < self.costs.intersection * count as f64 {
+            return Some(best);
+        }
+        // SAH would stop here. A node of more than max_leaf_triangles is split anyway where
+        // the larger child gets fewest triangles, if both lose some: the cheapest plane can
+        // be a sliver that takes one triangle off a pile, and a chain of those only reaches
+        // the depth limit with the pile whole.
+        if count <= self.costs.max_leaf_triangles {
+            return None;
+        }
+        [best, balanced?].into_iter().find(|s| s.larger() < count)
     }
 
     /// Splits the node's event lists into its children's, in time linear in their length
@@ -778,11 +931,14 @@ impl KdTree {
                 max_depth,
                 max_leaf_triangles: params.max_leaf_triangles as usize,
             };
-            let mut builder = SahBuilder::new(&tris, &costs, parallel_depth);
-            builder.node(events.clone(), bounds, tris.len(), 0);
-            // Only a mesh of hundreds of millions of triangles could overflow the format;
-            // a shallower tree then fits (depth 0 is one leaf of fewer than 2^30 triangles).
-            if fits_format(&builder.out) || max_depth == 0 {
+            let budget = Budget::new(tris.len(), params.max_entries_per_triangle);
+            let mut builder = SahBuilder::new(&tris, &costs, &budget, parallel_depth);
+            let allowance = tris.len().saturating_mul(LARGE_SPLIT_ENTRIES_PER_TRIANGLE);
+            builder.node(events.clone(), bounds, tris.len(), allowance, 0);
+            // A tree over its budget (max_entries_per_triangle), or one of hundreds of
+            // millions of triangles that overflows the format, is built again shallower:
+            // depth 0 is one leaf of fewer than 2^30 triangles, within both.
+            if (!budget.exhausted() && fits_format(&builder.out)) || max_depth == 0 {
                 return KdTree {
                     nodes: builder.out.nodes,
                     indices: builder.out.indices,

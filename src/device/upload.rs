@@ -15,7 +15,7 @@ use crate::accel::bvh::Bvh;
 use crate::accel::kdtree::{KdParams, KdTree};
 use crate::error::{Error, Result};
 use crate::scene::camera::CameraBasis;
-use crate::scene::mesh::TriangleMesh;
+use crate::scene::mesh::{self, TriangleMesh};
 use crate::scene::texture::TexturePack;
 use crate::scene::{MaterialKind, Scene, Shape};
 use glam::{DMat4, DVec3};
@@ -29,6 +29,8 @@ pub struct MeshInfo {
     pub path: PathBuf,
     pub triangles: usize,
     pub degenerate: usize,
+    /// Triangles dropped as copies of an earlier one.
+    pub duplicates: usize,
     pub instances: usize,
     pub build_time: Duration,
     /// Device bytes of its vertices, normals, triangles and kd-tree.
@@ -96,9 +98,19 @@ fn rows3x4(m: &DMat4) -> [f32; 12] {
 }
 
 impl PackedScene {
-    /// Packs `scene`, loading its texture maps (each image at most `max_texture_pixels`) and
-    /// meshes, and building the kd-trees and the BVH.
+    /// Packs `scene` with OBJ files of at most [`mesh::DEFAULT_MAX_FILE_BYTES`]
+    /// ([`PackedScene::with_limits`]).
     pub fn new(scene: &Scene, max_texture_pixels: u64) -> Result<PackedScene> {
+        PackedScene::with_limits(scene, max_texture_pixels, mesh::DEFAULT_MAX_FILE_BYTES)
+    }
+
+    /// Packs `scene`, loading its texture maps (each image at most `max_texture_pixels`) and
+    /// meshes (each OBJ file at most `max_mesh_bytes`), and building the kd-trees and the BVH.
+    pub fn with_limits(
+        scene: &Scene,
+        max_texture_pixels: u64,
+        max_mesh_bytes: u64,
+    ) -> Result<PackedScene> {
         let textures = TexturePack::load(scene, max_texture_pixels)?;
         let mut packed = PackedScene {
             camera: CameraBasis::new(&scene.camera)?,
@@ -196,7 +208,8 @@ impl PackedScene {
                     let mesh = match loaded.get(&path) {
                         Some(&m) => m,
                         None => {
-                            let m = packed.push_mesh(TriangleMesh::load(&path)?)?;
+                            let mesh = TriangleMesh::load_within(&path, max_mesh_bytes)?;
+                            let m = packed.push_mesh(mesh)?;
                             loaded.insert(path, m);
                             m
                         }
@@ -338,6 +351,7 @@ impl PackedScene {
             path: mesh.path,
             triangles: mesh.triangles.len(),
             degenerate: mesh.degenerate,
+            duplicates: mesh.duplicates,
             instances: 0,
             build_time: start.elapsed(),
             bytes,
@@ -367,10 +381,11 @@ impl PackedScene {
         );
         for m in &self.mesh_info {
             out.push_str(&format!(
-                "\nmesh {}: {} triangles ({} degenerate dropped), {} instance(s), kd-tree built in {:.3} s, {} bytes ({:.1} per triangle)",
+                "\nmesh {}: {} triangles ({} degenerate and {} copies dropped), {} instance(s), kd-tree built in {:.3} s, {} bytes ({:.1} per triangle)",
                 m.path.display(),
                 m.triangles,
                 m.degenerate,
+                m.duplicates,
                 m.instances,
                 m.build_time.as_secs_f64(),
                 m.bytes,

@@ -71,7 +71,8 @@ pub fn host_available_bytes() -> Option<u64> {
     kib.checked_mul(1024)
 }
 
-fn gib(bytes: u64) -> String {
+/// `bytes` in GiB with one decimal, for messages.
+pub(crate) fn gib(bytes: u64) -> String {
     format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
 }
 

@@ -120,6 +120,8 @@ pub struct RenderOptions {
     pub texture_filter: TextureFilter,
     /// Largest texture image accepted, in pixels.
     pub max_texture_pixels: u64,
+    /// Largest OBJ file read, in bytes.
+    pub max_mesh_bytes: u64,
     pub object_bvh: ObjectBvh,
     /// Build the program with every feature instead of only the scene's (benchmarks, tests).
     pub all_features: bool,
@@ -164,6 +166,7 @@ impl Default for RenderOptions {
             launch_target: Duration::from_millis(100),
             texture_filter: TextureFilter::Bilinear,
             max_texture_pixels: crate::scene::texture::DEFAULT_MAX_PIXELS,
+            max_mesh_bytes: crate::scene::mesh::DEFAULT_MAX_FILE_BYTES,
             object_bvh: ObjectBvh::Auto,
             all_features: false,
             cache_dir: None,
@@ -478,7 +481,8 @@ impl<'d> Renderer<'d> {
             scene.camera.height,
             memory::host_available_bytes(),
         )?;
-        let packed = PackedScene::new(scene, options.max_texture_pixels)?;
+        let packed =
+            PackedScene::with_limits(scene, options.max_texture_pixels, options.max_mesh_bytes)?;
         let filter = match options.texture_filter {
             TextureFilter::Bilinear => layout::FILTER_BILINEAR,
             TextureFilter::Nearest => layout::FILTER_NEAREST,

@@ -200,42 +200,56 @@ impl Scene {
     }
 }
 
-/// Finds a file a scene names (`what`: "texture", "mesh"): as written if absolute, else relative to the scene file's folder,
-/// then that folder's parent (the original's files name `texture/x.ppm` from their project
-/// root), then the working directory.
+/// Finds a file a scene names (`what`: "texture", "mesh"): as written if absolute, else
+/// relative to the scene file's folder, then that folder's parent (the original's files name
+/// `texture/x.ppm` from their project root), then the working directory. The first regular
+/// file wins; when there is none, a directory (or device, pipe) of that name is named as such
+/// rather than reported missing.
 pub fn resolve(
     what: &'static str,
     written: &Path,
     base_dir: Option<&Path>,
     at: &Location,
 ) -> crate::Result<PathBuf> {
-    if written.is_absolute() {
-        return if written.is_file() {
-            Ok(written.to_path_buf())
-        } else {
-            Err(crate::Error::FileNotFound {
-                what,
-                location: at.clone(),
-                written: written.display().to_string(),
-                tried: vec![written.to_path_buf()],
-            })
-        };
-    }
-    let mut tried = Vec::new();
-    if let Some(base) = base_dir {
-        tried.push(base.join(written));
-        if let Some(parent) = base.parent() {
-            tried.push(parent.join(written));
+    // A relative name in the scene's folder, its parent, then as written (once each: the
+    // parent of `.` is the working directory).
+    let folders = base_dir.filter(|_| written.is_relative());
+    let places = folders
+        .into_iter()
+        .flat_map(|base| [Some(base), base.parent()])
+        .flatten()
+        .map(|folder| folder.join(written))
+        .chain([written.to_path_buf()]);
+    let mut tried: Vec<PathBuf> = Vec::new();
+    for place in places {
+        if !tried.contains(&place) {
+            tried.push(place);
         }
     }
-    tried.push(written.to_path_buf());
-    match tried.iter().find(|p| p.is_file()) {
-        Some(p) => Ok(p.clone()),
-        None => Err(crate::Error::FileNotFound {
+    let mut not_a_file = None;
+    for place in &tried {
+        match std::fs::metadata(place) {
+            Ok(meta) if meta.is_file() => return Ok(place.clone()),
+            Ok(meta) => {
+                not_a_file.get_or_insert((place, meta.file_type()));
+            }
+            Err(_) => {}
+        }
+    }
+    let written_text = written.display().to_string();
+    Err(match not_a_file {
+        Some((path, file_type)) => crate::Error::NotAFile {
             what,
             location: at.clone(),
-            written: written.display().to_string(),
+            written: written_text,
+            path: path.clone(),
+            kind: crate::error::file_kind(file_type),
+        },
+        None => crate::Error::FileNotFound {
+            what,
+            location: at.clone(),
+            written: written_text,
             tried,
-        }),
-    }
+        },
+    })
 }

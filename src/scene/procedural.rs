@@ -15,6 +15,7 @@ fn mesh(name: &str, positions: Vec<DVec3>, triangles: Vec<[u32; 3]>) -> Triangle
         normals: None,
         triangles,
         degenerate: 0,
+        duplicates: 0,
     }
 }
 

@@ -9,9 +9,13 @@
 //! going to the earlier of those; a bump map's red channel is differentiated centrally along u and
 //! v into gradients in [-1, 1].
 
+use super::mesh::open_input;
 use super::{Scene, Shape};
 use crate::device::layout::{self, MAP_BUMP8, MAP_RGB8, MAP_TYPE8, TextureMap};
 use crate::error::{Error, Result};
+use crate::render::memory::{gib, host_available_bytes};
+use bytemuck::Zeroable;
+use image::{DynamicImage, ImageBuffer, ImageDecoder, Pixel};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -74,17 +78,33 @@ impl RgbImage {
 
 /// Decodes an image file, refusing empty images and images over `max_pixels` before decoding.
 /// 16-bit images are scaled to 8 bits; grey becomes R = G = B; alpha is dropped.
+///
+/// Sizes come from the file's header, so nothing is allocated before they are checked: the
+/// file must be a regular file of at most [`max_file_bytes`], long enough for the image its
+/// header claims ([`fewest_file_bytes`]: a 69-byte PPM claiming 100000x100000 pixels is cut
+/// short), and decoding must fit the memory the machine has available ([`decoding_bytes`]);
+/// the pixel buffers are then reserved fallibly (the image crate's own `vec!` would abort the
+/// process when an allocation fails).
 pub fn decode(path: &Path, max_pixels: u64) -> Result<RgbImage> {
     let fail = |message: String| Error::Texture {
         path: path.to_path_buf(),
         message,
     };
-    let open = || -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>> {
-        image::ImageReader::open(path)
-            .and_then(|r| r.with_guessed_format())
-            .map_err(|e| fail(e.to_string()))
-    };
-    let (width, height) = open()?.into_dimensions().map_err(|e| fail(e.to_string()))?;
+    let limit = max_file_bytes(max_pixels);
+    let (file, len) = open_input(path, limit, "--max-texture-pixels").map_err(fail)?;
+    let mut reader = image::ImageReader::new(std::io::BufReader::new(file));
+    if let Ok(format) = image::ImageFormat::from_path(path) {
+        reader.set_format(format);
+    }
+    let mut reader = reader
+        .with_guessed_format()
+        .map_err(|e| fail(e.to_string()))?;
+    let format = reader.format();
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(max_pixels.saturating_mul(8).saturating_add(1 << 20));
+    reader.limits(limits);
+    let decoder = reader.into_decoder().map_err(|e| fail(e.to_string()))?;
+    let (width, height) = decoder.dimensions();
     if width == 0 || height == 0 {
         return Err(fail(format!("the image is empty ({width}x{height})")));
     }
@@ -95,17 +115,132 @@ pub fn decode(path: &Path, max_pixels: u64) -> Result<RgbImage> {
              (--max-texture-pixels)"
         )));
     }
-    let mut reader = open()?;
-    let mut limits = image::Limits::default();
-    limits.max_alloc = Some(pixels * 8 + (1 << 20));
-    reader.limits(limits);
-    let decoded = reader.decode().map_err(|e| fail(e.to_string()))?;
-    let rgb = decoded.to_rgb8();
+    let decoded = decoder.total_bytes();
+    let fewest = fewest_file_bytes(format, decoder.color_type(), decoded);
+    if len < fewest {
+        return Err(fail(format!(
+            "the file is {len} bytes, too short for the {width}x{height} image its header \
+             claims (at least {fewest} bytes): it is cut short, or the header is wrong"
+        )));
+    }
+    check_memory(width, height, decoded, host_available_bytes(), max_pixels).map_err(fail)?;
+    let rgb = read_pixels(decoder).map_err(fail)?.into_rgb8().into_raw();
+    let mut texels = Vec::new();
+    texels
+        .try_reserve_exact(rgb.len() / 3)
+        .map_err(|e| fail(format!("no memory for its {width}x{height} pixels: {e}")))?;
+    texels.extend(rgb.chunks_exact(3).map(|p| [p[0], p[1], p[2]]));
     Ok(RgbImage {
         width,
         height,
-        rgb: rgb.pixels().map(|p| p.0).collect(),
+        rgb: texels,
     })
+}
+
+/// The largest image file read when images may have `max_pixels` pixels: 32 bytes a pixel
+/// (the widest encoding clpt reads, a 16-bit P3 PPM, takes at most 18: `65535 ` three times;
+/// more can only be comments or data a texture does not use) and 64 MiB for headers and
+/// metadata. `--max-texture-pixels` raises both limits together; the default allows 2 GiB.
+pub fn max_file_bytes(max_pixels: u64) -> u64 {
+    max_pixels.saturating_mul(32).saturating_add(64 << 20)
+}
+
+/// The fewest bytes a file in `format` can hold an image in, whose decoded pixels (of
+/// `color`) take `decoded` bytes: PNM stores every sample in at least a byte, as text or
+/// binary, except bitmaps (P4: 8 pixels to a byte of an 8-bit grey image); PNG deflates its
+/// rows at most 1032 to 1 (deflate's limit), rows whose samples can be 1/32 of the decoded
+/// pixels (1-bit palette indices decoded to RGBA). Other formats are not bounded here.
+fn fewest_file_bytes(
+    format: Option<image::ImageFormat>,
+    color: image::ColorType,
+    decoded: u64,
+) -> u64 {
+    match format {
+        Some(image::ImageFormat::Pnm) if color == image::ColorType::L8 => decoded / 8,
+        Some(image::ImageFormat::Pnm) => decoded,
+        Some(image::ImageFormat::Png) => decoded / (1032 * 32),
+        _ => 0,
+    }
+}
+
+/// Host bytes decoding an image of `pixels` takes at its peak: the decoder's pixels
+/// (`decoded` bytes) with the 8-bit RGB copy made from them, or that copy with the texel list
+/// made from it (3 bytes a pixel each).
+fn decoding_bytes(pixels: u64, decoded: u64) -> u64 {
+    decoded
+        .saturating_add(pixels.saturating_mul(3))
+        .max(pixels.saturating_mul(6))
+}
+
+/// Refuses a `width` x `height` image whose decoded pixels take `decoded` bytes when decoding
+/// it would need more than the `available` bytes of memory the system reports (if it does).
+fn check_memory(
+    width: u32,
+    height: u32,
+    decoded: u64,
+    available: Option<u64>,
+    max_pixels: u64,
+) -> std::result::Result<(), String> {
+    let need = decoding_bytes(u64::from(width) * u64::from(height), decoded);
+    match available {
+        Some(have) if need > have => Err(format!(
+            "decoding its {width}x{height} pixels needs {need} bytes ({}) of memory, more than \
+             the {} available (--max-texture-pixels, now {max_pixels}, refuses such images \
+             before any memory is used)",
+            gib(need),
+            gib(have)
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// `DynamicImage::from_decoder` with the pixel buffer reserved fallibly.
+fn read_pixels(decoder: impl ImageDecoder) -> std::result::Result<DynamicImage, String> {
+    use image::ColorType as C;
+    Ok(match decoder.color_type() {
+        C::L8 => DynamicImage::ImageLuma8(read_buffer(decoder)?),
+        C::La8 => DynamicImage::ImageLumaA8(read_buffer(decoder)?),
+        C::Rgb8 => DynamicImage::ImageRgb8(read_buffer(decoder)?),
+        C::Rgba8 => DynamicImage::ImageRgba8(read_buffer(decoder)?),
+        C::L16 => DynamicImage::ImageLuma16(read_buffer(decoder)?),
+        C::La16 => DynamicImage::ImageLumaA16(read_buffer(decoder)?),
+        C::Rgb16 => DynamicImage::ImageRgb16(read_buffer(decoder)?),
+        C::Rgba16 => DynamicImage::ImageRgba16(read_buffer(decoder)?),
+        C::Rgb32F => DynamicImage::ImageRgb32F(read_buffer(decoder)?),
+        C::Rgba32F => DynamicImage::ImageRgba32F(read_buffer(decoder)?),
+        other => return Err(format!("{other:?} images are not supported")),
+    })
+}
+
+/// The decoder's pixels in a buffer of `P`, reserved with `try_reserve_exact`.
+fn read_buffer<P: Pixel>(
+    decoder: impl ImageDecoder,
+) -> std::result::Result<ImageBuffer<P, Vec<P::Subpixel>>, String>
+where
+    P::Subpixel: bytemuck::Pod,
+{
+    let (width, height) = decoder.dimensions();
+    let bytes = decoder.total_bytes();
+    let len = usize::try_from(bytes / size_of::<P::Subpixel>() as u64)
+        .map_err(|_| format!("{bytes} bytes of pixels do not fit this machine's memory"))?;
+    let mut samples = Vec::new();
+    samples.try_reserve_exact(len).map_err(|e| {
+        format!(
+            "no memory for {bytes} bytes of pixels ({}): {e}",
+            gib(bytes)
+        )
+    })?;
+    samples.resize(len, P::Subpixel::zeroed());
+    decoder
+        .read_image(bytemuck::cast_slice_mut(&mut samples))
+        .map_err(|e| match e {
+            image::ImageError::IoError(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {
+                "the file ends before its last pixel: it is cut short".to_string()
+            }
+            e => e.to_string(),
+        })?;
+    ImageBuffer::from_raw(width, height, samples)
+        .ok_or_else(|| "the decoder's pixels do not fill the image".to_string())
 }
 
 /// The original's type-map rule: the largest channel wins, R diffuse, G mirror, B glass; ties go
@@ -209,6 +344,16 @@ impl TexturePack {
             Error::Invalid("the scene's texture maps exceed 4 GiB of device memory".into())
         })?;
         let start = self.texels.len();
+        let bytes = image.rgb.len() * kind.bytes_per_texel();
+        self.texels
+            .try_reserve_exact(bytes)
+            .map_err(|e| Error::Texture {
+                path: path.to_path_buf(),
+                message: format!(
+                    "no memory for its {} map of {bytes} bytes: {e}",
+                    kind.name()
+                ),
+            })?;
         match kind {
             MapKind::Color | MapKind::Emission => {
                 self.texels.extend(image.rgb.iter().flatten());
@@ -305,4 +450,44 @@ fn check_mapped_shapes(scene: &Scene, pack: &TexturePack) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decoding_more_than_the_memory_available_is_refused_with_the_figures() {
+        let (w, h) = (60000, 60000);
+        // 16-bit RGBA: 8 bytes a pixel decoded, 3 more for the RGB copy.
+        let decoded = 8 * 3_600_000_000;
+        let err = check_memory(w, h, decoded, Some(8 << 30), 1 << 40).unwrap_err();
+        assert!(
+            err.contains("needs 39600000000 bytes (36.9 GiB)")
+                && err.contains("the 8.0 GiB available")
+                && err.contains("--max-texture-pixels, now 1099511627776"),
+            "{err}"
+        );
+        assert!(check_memory(w, h, decoded, Some(40 << 30), 1 << 40).is_ok());
+        assert!(check_memory(w, h, decoded, None, 1 << 40).is_ok());
+        // An 8-bit RGB image needs 6 bytes a pixel: its pixels with the RGB copy (the same
+        // buffer here), then that copy with the texel list; an 8-bit grey one as many.
+        for decoded in [3_000_000, 1_000_000] {
+            assert!(check_memory(1000, 1000, decoded, Some(5_999_999), 1 << 26).is_err());
+            assert!(check_memory(1000, 1000, decoded, Some(6_000_000), 1 << 26).is_ok());
+        }
+    }
+
+    #[test]
+    fn files_too_short_for_their_header_are_told_apart_by_format() {
+        use image::{ColorType, ImageFormat};
+        let pnm = Some(ImageFormat::Pnm);
+        assert_eq!(fewest_file_bytes(pnm, ColorType::Rgb8, 30_000), 30_000);
+        assert_eq!(fewest_file_bytes(pnm, ColorType::L8, 8_000), 1_000);
+        assert_eq!(
+            fewest_file_bytes(Some(ImageFormat::Png), ColorType::Rgba16, 33_024_000),
+            1000
+        );
+        assert_eq!(fewest_file_bytes(None, ColorType::Rgb8, 1 << 40), 0);
+    }
 }
