@@ -79,7 +79,8 @@ pub enum Error {
     Texture { path: PathBuf, message: String },
 
     #[error(
-        "{location}: {what} file `{written}` not found; tried:\n{}",
+        "{location}: {what} file {} not found; tried:\n{}",
+        quote(written),
         tried.iter().map(|p| format!("  {}", p.display())).collect::<Vec<_>>().join("\n")
     )]
     FileNotFound {
@@ -91,14 +92,12 @@ pub enum Error {
 
     /// A file larger than clpt reads of its kind (`what`: "scene"), checked while reading, so
     /// an endless source (`/dev/zero`, a pipe) ends too.
-    #[error(
-        "{what} {}: larger than the limit of {}; a larger file can be read with {flag} N",
-        path.display(),
-        bytes(*limit)
-    )]
+    #[error("{what} {}: {}", path.display(), crate::input::over_limit(*size, *limit, flag))]
     FileTooLarge {
         what: &'static str,
         path: PathBuf,
+        /// The file's size, where it has one (not a pipe's or a device's).
+        size: Option<u64>,
         limit: u64,
         /// The option that raises the limit.
         flag: &'static str,
@@ -107,7 +106,8 @@ pub enum Error {
     /// A name a scene gives (a texture, a mesh) that is there but is no file to read: a
     /// directory, a device or a pipe.
     #[error(
-        "{location}: {what} file `{written}` is {kind} ({})",
+        "{location}: {what} file {} is {kind} ({})",
+        quote(written),
         path.display()
     )]
     NotAFile {
@@ -161,7 +161,7 @@ impl Error {
 }
 
 /// "100 bytes", or "67108864 bytes (64.0 MiB)" from a mebibyte on.
-fn bytes(count: u64) -> String {
+pub fn bytes(count: u64) -> String {
     const MIB: u64 = 1 << 20;
     if count < MIB {
         format!("{count} bytes")

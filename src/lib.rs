@@ -8,6 +8,7 @@
 pub mod accel;
 pub mod device;
 pub mod error;
+pub mod input;
 pub mod output;
 pub mod render;
 pub mod scene;

@@ -1,22 +1,11 @@
 //! Hostile input (issue 14): inputs that crashed, hung or printed NaN now end with a clear
 //! error (exit status 1) or, for an unreachable target error, a bounded render and a warning.
 
+mod common;
+
+use common::cli::{clpt, refused, scratch};
 use std::path::PathBuf;
-use std::process::{Command, Output};
-
-fn clpt(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_clpt"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("clpt-hostile-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use std::process::Command;
 
 fn pfm(pixels: &[[f32; 3]], width: u32) -> Vec<u8> {
     let height = pixels.len() as u32 / width;
@@ -27,15 +16,6 @@ fn pfm(pixels: &[[f32; 3]], width: u32) -> Vec<u8> {
         }
     }
     bytes
-}
-
-fn refused(out: &Output, reason: &str) {
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert!(
-        stderr.contains(reason) && !stderr.contains("panicked"),
-        "{stderr}"
-    );
 }
 
 #[test]

@@ -2,34 +2,12 @@
 //! each ends with a clear error (exit status 1) naming the file, or renders in bounded time,
 //! never with a crash, an abort or a hang.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+mod common;
 
-/// Runs clpt with `args` in `dir`; fails the test if it has not ended within `limit`.
-fn clpt_within(dir: &Path, args: &[&str], limit: Duration) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_clpt"))
-        .args(args)
-        .current_dir(dir)
-        .env_remove("CLPT_DEVICE")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let started = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if started.elapsed() > limit {
-            child.kill().unwrap();
-            let out = child.wait_with_output().unwrap();
-            panic!(
-                "clpt {args:?} still running after {limit:?}: {}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().unwrap()
-}
+use common::cli::{clpt_within, refused, scratch};
+use std::path::Path;
+use std::process::Output;
+use std::time::Duration;
 
 /// A small render of `scene` in `dir`, with a fixed estimator (no trial), and `extra` options.
 fn render(dir: &Path, scene: &str, extra: &[&str]) -> Output {
@@ -48,14 +26,6 @@ fn render(dir: &Path, scene: &str, extra: &[&str]) -> Output {
     ];
     args.extend(extra);
     clpt_within(dir, &args, Duration::from_secs(120))
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("clpt-hostile-assets-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 /// A scene file `name` in `dir` with one grey material (mapped by `texture`, if given) and
@@ -80,16 +50,6 @@ fn texture_scene(dir: &Path, name: &str, image: &str) {
         &format!("texture {{ color {image} }}"),
         "Sphere { center 0 0 0 radius 1 }",
     );
-}
-
-fn refused(out: &Output, reason: &str) {
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert!(
-        stderr.contains(reason) && !stderr.contains("panicked"),
-        "wanted {reason:?} in: {stderr}"
-    );
-    assert_eq!(stderr.matches("Error").count(), 1, "{stderr}");
 }
 
 fn rendered(out: &Output) -> String {
@@ -225,7 +185,8 @@ fn the_obj_size_limit_names_its_option() {
     refused(
         &render(&dir, "scene.txt", &["--max-mesh-bytes", &small]),
         &format!(
-            "the file is {} bytes (0.0 GiB), over the limit of {small} (--max-mesh-bytes raises it)",
+            "the file is {} bytes, larger than the limit of {small} bytes; a larger file can be \
+             read with --max-mesh-bytes N",
             obj.len()
         ),
     );

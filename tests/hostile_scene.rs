@@ -2,24 +2,12 @@
 //! that are not text, runaway nesting and numbers the device cannot hold end at once with one
 //! short error (exit status 1), never a crash, a hang or a flood on stderr.
 
+mod common;
+
+use common::cli::{clpt, scratch};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use std::time::{Duration, Instant};
-
-fn clpt(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_clpt"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("clpt-hostile-scene-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// Renders `scene` (8x8, one sample) to `dir`, and returns the run and how long it took.
 fn render(scene: &Path, dir: &Path, extra: &[&str]) -> (Output, Duration) {
@@ -79,7 +67,13 @@ fn endless_and_huge_scenes_end_at_the_size_limit() {
         .set_len(1 << 30)
         .unwrap();
     let (run, _) = render(&nuls, &dir, &[]);
-    refused_with(&run, &format!("{}: {limit}", nuls.display()));
+    refused_with(
+        &run,
+        &format!(
+            "{}: the file is 1073741824 bytes (1024.0 MiB), {limit}",
+            nuls.display()
+        ),
+    );
     // Under the limit, NULs are a token quoted short.
     std::fs::write(&nuls, vec![0u8; 1 << 20]).unwrap();
     let (run, _) = render(&nuls, &dir, &[]);
@@ -102,9 +96,10 @@ fn endless_and_huge_scenes_end_at_the_size_limit() {
     refused_with(
         &run,
         &format!(
-            "{}: larger than the limit of 100 bytes; a larger file can be read with \
-             --max-scene-bytes N",
-            scene.display()
+            "{}: the file is {} bytes, larger than the limit of 100 bytes; a larger file can be \
+             read with --max-scene-bytes N",
+            scene.display(),
+            std::fs::metadata(&scene).unwrap().len()
         ),
     );
     let (run, _) = render(&scene, &dir, &["--max-scene-bytes", "1000"]);

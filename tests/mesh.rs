@@ -925,7 +925,7 @@ fn oversized_and_non_files_are_refused_as_such() {
         .to_string();
     assert!(
         err.contains(&format!("the file is {len} bytes"))
-            && err.contains(&format!("over the limit of {}", len - 1))
+            && err.contains(&format!("larger than the limit of {} bytes", len - 1))
             && err.contains("--max-mesh-bytes"),
         "{err}"
     );

@@ -200,8 +200,10 @@ fn headers_claiming_more_than_the_file_holds_are_refused_before_allocating() {
     file.set_len(texture::max_file_bytes(16) + 1).unwrap();
     let err = texture::decode(&sparse, 16).unwrap_err().to_string();
     assert!(
-        err.contains(&format!("over the limit of {}", (64 << 20) + 512))
-            && err.contains("--max-texture-pixels"),
+        err.contains(&format!(
+            "larger than the limit of {} bytes",
+            (64 << 20) + 512
+        )) && err.contains("--max-texture-pixels"),
         "{err}"
     );
     let err = decode(&dir).unwrap_err().to_string();

@@ -27,39 +27,39 @@ pub fn check_film_fits(
     host_available: Option<u64>,
 ) -> Result<()> {
     let pixels = u64::from(width) * u64::from(height);
-    let too_large = |need: u64, what: &str, have: u64| {
-        Error::Invalid(format!(
-            "a {width}x{height} film needs {} {what}, more than the {} {} has; \
-             render fewer pixels (--width, --height)",
-            gib(need),
-            gib(have),
-            if what.contains("host") {
-                "this machine".to_string()
-            } else {
-                device.name.clone()
-            }
-        ))
-    };
-    let device_bytes = pixels * DEVICE_BYTES_PER_PIXEL;
-    if device.global_mem_bytes > 0 && device_bytes > device.global_mem_bytes {
-        return Err(too_large(
-            device_bytes,
+    let device_name = device.name.as_str();
+    // (bytes needed, of what, bytes there (0: not reported), whose): the first that does not fit.
+    let checks = [
+        (
+            pixels * DEVICE_BYTES_PER_PIXEL,
             "of device memory",
             device.global_mem_bytes,
-        ));
-    }
-    let buffer_bytes = pixels * LARGEST_BUFFER_BYTES_PER_PIXEL;
-    if device.max_alloc_bytes > 0 && buffer_bytes > device.max_alloc_bytes {
-        return Err(too_large(
-            buffer_bytes,
+            device_name,
+        ),
+        (
+            pixels * LARGEST_BUFFER_BYTES_PER_PIXEL,
             "in one device buffer",
             device.max_alloc_bytes,
-        ));
-    }
-    let host_bytes = pixels * HOST_BYTES_PER_PIXEL;
-    match host_available {
-        Some(have) if host_bytes > have => Err(too_large(host_bytes, "of host memory", have)),
-        _ => Ok(()),
+            device_name,
+        ),
+        (
+            pixels * HOST_BYTES_PER_PIXEL,
+            "of host memory",
+            host_available.unwrap_or(0),
+            "this machine",
+        ),
+    ];
+    match checks
+        .iter()
+        .find(|&&(need, _, have, _)| have > 0 && need > have)
+    {
+        Some(&(need, what, have, whose)) => Err(Error::Invalid(format!(
+            "a {width}x{height} film needs {} {what}, more than the {} {whose} has; \
+             render fewer pixels (--width, --height)",
+            gib(need),
+            gib(have)
+        ))),
+        None => Ok(()),
     }
 }
 

@@ -19,10 +19,8 @@
 //! indices, or zero area) and copies of an earlier triangle (see `surface_triangles`).
 
 use crate::accel::kdtree;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, quote};
 use std::collections::HashSet;
-use std::fs::File;
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// The largest OBJ file read unless `--max-mesh-bytes` says otherwise: 1 GiB, 32 times the
@@ -66,7 +64,8 @@ impl TriangleMesh {
             path: path.to_path_buf(),
             message,
         };
-        let bytes = read_input(path, max_file_bytes, "--max-mesh-bytes").map_err(fail)?;
+        let bytes =
+            crate::input::read_regular(path, max_file_bytes, "--max-mesh-bytes").map_err(fail)?;
         let text = obj_text(path, &bytes)?;
         check_lines(path, text, MAX_VERTICES, kdtree::MAX_TRIANGLES)?;
         let models = parse(path, text)?;
@@ -89,53 +88,6 @@ impl TriangleMesh {
             duplicates,
         })
     }
-}
-
-/// Opens an input file after checking that it is a regular file of at most `limit` bytes
-/// (`option`: what raises the limit), and returns it with its length. A directory is named as
-/// such; a device or pipe is refused, since `/dev/zero` would be read forever (and opening a
-/// pipe waits for a writer). Shared by the mesh and texture loaders.
-pub(crate) fn open_input(
-    path: &Path,
-    limit: u64,
-    option: &str,
-) -> std::result::Result<(File, u64), String> {
-    let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
-    if !meta.is_file() {
-        return Err(format!(
-            "this is {}, not a file",
-            crate::error::file_kind(meta.file_type())
-        ));
-    }
-    let len = meta.len();
-    if len > limit {
-        return Err(format!(
-            "the file is {len} bytes ({}), over the limit of {limit} ({option} raises it)",
-            crate::render::memory::gib(len)
-        ));
-    }
-    Ok((File::open(path).map_err(|e| e.to_string())?, len))
-}
-
-/// The whole of an input file of at most `limit` bytes, read into memory reserved fallibly
-/// (see [`open_input`]).
-fn read_input(path: &Path, limit: u64, option: &str) -> std::result::Result<Vec<u8>, String> {
-    let (file, len) = open_input(path, limit, option)?;
-    let mut bytes = Vec::new();
-    let cannot = |e: &dyn std::fmt::Display| format!("cannot read the file ({len} bytes): {e}");
-    bytes
-        .try_reserve_exact(usize::try_from(len).unwrap_or(usize::MAX))
-        .map_err(|e| cannot(&e))?;
-    // One byte past the limit tells a file that grew since it was measured.
-    file.take(limit.saturating_add(1))
-        .read_to_end(&mut bytes)
-        .map_err(|e| cannot(&e))?;
-    if bytes.len() as u64 > limit {
-        return Err(format!(
-            "the file grew past the limit of {limit} bytes while it was read ({option} raises it)"
-        ));
-    }
-    Ok(bytes)
 }
 
 /// The file as text: UTF-8, a leading byte-order mark dropped (tobj would read `\u{feff}v` as
@@ -198,15 +150,15 @@ fn check_lines(path: &Path, text: &str, max_vertices: usize, max_triangles: usiz
                 let stored = stored_coordinates(&numbers).unwrap_or_default();
                 if !stored.iter().all(|c| c.is_finite()) {
                     return Err(fail(format!(
-                        "dividing by w leaves a coordinate beyond the range of f32: `{}`",
-                        quoted(line.trim())
+                        "dividing by w leaves a coordinate beyond the range of f32: {}",
+                        quote(line.trim())
                     )));
                 }
                 if stored.iter().any(|c| c.abs() > MAX_COORDINATE) {
                     return Err(fail(format!(
-                        "a coordinate of `{}` is over {MAX_COORDINATE:e} in size: the device \
+                        "a coordinate of {} is over {MAX_COORDINATE:e} in size: the device \
                          multiplies coordinate differences in f32, which would overflow",
-                        quoted(line.trim())
+                        quote(line.trim())
                     )));
                 }
             }
@@ -245,12 +197,12 @@ fn check_numbers(words: &[&str]) -> std::result::Result<(), String> {
         let written = word.parse::<f64>().unwrap_or(f64::NAN);
         return Err(if written.is_finite() {
             format!(
-                "`{}` is beyond the range of f32 (±{:.2e})",
-                quoted(word),
+                "{} is beyond the range of f32 (±{:.2e})",
+                quote(word),
                 f32::MAX
             )
         } else {
-            format!("`{}` is not a finite number", quoted(word))
+            format!("{} is not a finite number", quote(word))
         });
     }
     Ok(())
@@ -296,16 +248,16 @@ fn parse(path: &Path, text: &str) -> Result<Vec<tobj::Model>> {
                 .unwrap_or_else(|| (stop, format!("{e} (by the end of this object)"))),
             e => (
                 stop,
-                format!("{}: `{}`", what_tobj_refused(&e), line_at(text, stop)),
+                format!("{}: {}", what_tobj_refused(&e), line_at(text, stop)),
             ),
         };
         line_error(path, line, message)
     })
 }
 
-/// Line `line` (1-based) of `text`, trimmed and quoted.
+/// Line `line` (1-based) of `text`, trimmed and quoted (crate::error::quote).
 fn line_at(text: &str, line: usize) -> String {
-    quoted(text.lines().nth(line - 1).unwrap_or("").trim())
+    quote(text.lines().nth(line - 1).unwrap_or("").trim())
 }
 
 /// What tobj's error means, in the file's terms.
@@ -378,16 +330,16 @@ fn corner_out_of_range(corner: &str, before: &[i64; 3], total: &[i64; 3]) -> Opt
         if missing || (0..total[k]).contains(&at) {
             return None;
         }
-        let (corner, name) = (quoted(corner), ELEMENTS[k].1);
+        let (corner, name) = (quote(corner), ELEMENTS[k].1);
         Some(if index < 0 {
             format!(
-                "corner `{corner}` counts back {} to a {name} before the first (the file \
+                "corner {corner} counts back {} to a {name} before the first (the file \
                  defines {} before this line)",
                 -index, before[k]
             )
         } else {
             format!(
-                "corner `{corner}` names {name} {index}; the file defines {} by the end of its \
+                "corner {corner} names {name} {index}; the file defines {} by the end of its \
                  object",
                 total[k]
             )
@@ -411,7 +363,10 @@ fn merge_models(path: &Path, models: &[tobj::Model]) -> Result<Merged> {
         let mesh = &model.mesh;
         let base = positions.len();
         if mesh.positions.len() % 3 != 0 {
-            return Err(fail(format!("model `{}` has a partial vertex", model.name)));
+            return Err(fail(format!(
+                "model {} has a partial vertex",
+                quote(&model.name)
+            )));
         }
         let count = mesh.positions.len() / 3;
         if base + count > MAX_VERTICES {
@@ -429,8 +384,8 @@ fn merge_models(path: &Path, models: &[tobj::Model]) -> Result<Merged> {
         // promise from indexing out of bounds later.
         if let Some(&i) = mesh.indices.iter().find(|&&i| i as usize >= count) {
             return Err(fail(format!(
-                "model `{}` refers to vertex {} of {count}",
-                model.name,
+                "model {} refers to vertex {} of {count}",
+                quote(&model.name),
                 i as u64 + 1
             )));
         }
@@ -506,49 +461,9 @@ fn normalized(n: [f32; 3]) -> [f32; 3] {
     }
 }
 
-/// Text from a file as messages quote it: at most 60 characters (then `…`), with control
-/// and invisible characters escaped (`\t`, `\u{200b}`), so what is shown is what the file
-/// holds. (A private copy: the scene parser's quoting helper lands in error.rs separately.)
-fn quoted(text: &str) -> String {
-    const MOST: usize = 60;
-    let mut out = String::new();
-    for (i, c) in text.chars().enumerate() {
-        if i == MOST {
-            out.push('…');
-            break;
-        }
-        if c.is_control() || is_invisible(c) {
-            out.extend(c.escape_default());
-        } else {
-            out.push(c);
-        }
-    }
-    out
-}
-
-/// Characters that print as nothing or as blank space other than a plain space: format
-/// characters (zero-width spaces and joiners, direction marks, the byte-order mark, the soft
-/// hyphen) and Unicode's other spaces.
-fn is_invisible(c: char) -> bool {
-    matches!(c,
-        '\u{00a0}' | '\u{00ad}' | '\u{034f}' | '\u{061c}' | '\u{115f}' | '\u{1160}'
-        | '\u{1680}' | '\u{180e}' | '\u{2000}'..='\u{200f}' | '\u{2028}'..='\u{202f}'
-        | '\u{205f}'..='\u{206f}' | '\u{3000}' | '\u{3164}' | '\u{fe00}'..='\u{fe0f}'
-        | '\u{feff}' | '\u{ffa0}' | '\u{fff0}'..='\u{fffb}' | '\u{e0000}'..='\u{e007f}')
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn quoting_escapes_what_cannot_be_seen_and_cuts_long_text() {
-        assert_eq!(quoted("f 1 2 x"), "f 1 2 x");
-        assert_eq!(quoted("\u{200b}0.75\t"), "\\u{200b}0.75\\t");
-        assert_eq!(quoted("a\u{0}b\u{feff}"), "a\\u{0}b\\u{feff}");
-        let long = "9".repeat(1000);
-        assert_eq!(quoted(&long), format!("{}…", "9".repeat(60)));
-    }
 
     /// Vertices and triangles are counted as the lines come, tobj's fans and degenerate
     /// points and lines included, and refused at the line that passes the limit.

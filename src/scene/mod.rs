@@ -12,7 +12,6 @@ pub mod texture;
 
 use crate::error::{Location, Warning};
 use glam::{DMat4, DVec3};
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// `PerspectiveCamera { center direction angle width height flength aperture }`.
@@ -118,33 +117,29 @@ pub struct Scene {
     pub base_dir: Option<PathBuf>,
 }
 
-/// The bytes of a scene file, at most `max_bytes` of them: read through `take`, so that an
-/// endless source (`/dev/zero`, a pipe) or a huge file ends after the limit with an error rather
-/// than filling memory; the buffer is reserved fallibly.
+/// The bytes of a scene file (a file, a pipe or a device), at most `max_bytes` of them
+/// (crate::input).
 fn read_bounded(path: &Path, max_bytes: u64) -> crate::Result<Vec<u8>> {
     let failed = |source| crate::Error::Read {
         path: path.to_path_buf(),
         source,
     };
     let file = std::fs::File::open(path).map_err(failed)?;
-    // The file's size, where it has one, saves growing the buffer (0 for devices and pipes).
-    let size = file.metadata().map_or(0, |m| m.len());
-    let mut bytes = Vec::new();
-    bytes
-        .try_reserve_exact(size.min(max_bytes.saturating_add(1)) as usize)
-        .map_err(|e| failed(e.into()))?;
-    file.take(max_bytes.saturating_add(1))
-        .read_to_end(&mut bytes)
-        .map_err(failed)?;
-    if bytes.len() as u64 > max_bytes {
-        return Err(crate::Error::FileTooLarge {
+    // The file's size, where it has one (devices and pipes have none).
+    let size = file
+        .metadata()
+        .ok()
+        .filter(|m| m.is_file())
+        .map(|m| m.len());
+    crate::input::read_at_most(file, size.unwrap_or(0), max_bytes)
+        .map_err(failed)?
+        .ok_or_else(|| crate::Error::FileTooLarge {
             what: "scene",
             path: path.to_path_buf(),
+            size,
             limit: max_bytes,
             flag: "--max-scene-bytes",
-        });
-    }
-    Ok(bytes)
+        })
 }
 
 /// A power of two by which `v` can be multiplied so that its length neither overflows nor

@@ -9,7 +9,6 @@
 //! going to the earlier of those; a bump map's red channel is differentiated centrally along u and
 //! v into gradients in [-1, 1].
 
-use super::mesh::open_input;
 use super::{Scene, Shape};
 use crate::device::layout::{self, MAP_BUMP8, MAP_RGB8, MAP_TYPE8, TextureMap};
 use crate::error::{Error, Result};
@@ -91,7 +90,8 @@ pub fn decode(path: &Path, max_pixels: u64) -> Result<RgbImage> {
         message,
     };
     let limit = max_file_bytes(max_pixels);
-    let (file, len) = open_input(path, limit, "--max-texture-pixels").map_err(fail)?;
+    let (file, len) =
+        crate::input::open_regular(path, limit, "--max-texture-pixels").map_err(fail)?;
     let mut reader = image::ImageReader::new(std::io::BufReader::new(file));
     if let Ok(format) = image::ImageFormat::from_path(path) {
         reader.set_format(format);

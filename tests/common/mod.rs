@@ -1,6 +1,8 @@
 //! Shared helpers for the integration tests.
 #![allow(dead_code)]
 
+pub mod cli;
+
 use std::path::PathBuf;
 
 /// The original project's data (`../shared/seed` beside the checkout, or `$CLPT_SEED_DIR`),
