@@ -139,34 +139,59 @@ inline float emission_weight(const Scene* sc, Hit hit, Surface s, float3 p, floa
     return mis_weight(pdf_bsdf, light_pdf(&sc->lights[entry], p, d, length(s.p - p)));
 }
 
-/* Whether the segment from the surface s (left towards the sampled point q, of error bound
- * q_error) to q is free of any surface: a shadow ray to a point (pbrt-v4's SpawnRayTo). The
- * ray leaves the spawned origin towards q itself, not along the direction sampled from s.p, and
- * its far end is pulled in by twice q's error bound projected on the ray (once for where q
- * truly lies, once for where the light's own intersection routine puts it) and by the rounding
- * of the distance, so the light itself never counts as a blocker. Whatever else lies on the
- * segment blocks it: a neighbouring triangle of the same light that q rounded onto does not. */
-inline bool segment_unblocked(const Scene* sc, Surface s, float3 q, float3 q_error, float3 wi) {
+/* Whether the segment from the surface s (left towards the point q sampled on light l, of
+ * error bound q_error and geometric normal q_normal there) to q is free of any surface: a
+ * shadow ray to a point (pbrt-v4's SpawnRayTo, section 6.8.6), leaving the spawned origin
+ * towards q itself, not along the direction sampled from s.p, its far end pulled in by the
+ * distance's rounding.
+ * - A sphere or a plane light can meet the segment only at q (q lies on the sphere's side that
+ *   faces s, light_pdf being 0 on the other, and a square is one-sided): a hit on the light
+ *   itself ends the segment unblocked. Anything else before it blocks, however close to q:
+ *   smallpt's light meets its ceiling at a rim, and samples of its hidden part a rounding
+ *   above the ceiling are the ceiling's, as intersection finds them. (Pulling the end in by q's
+ *   error instead let through 0.16% of the light from those; and fell short at low angles to
+ *   the light, where q rounded inside it shadowed itself: a 0.2% loss.)
+ * - A triangle's neighbours on the same mesh are other primitives, which q may round onto: q
+ *   is moved off its triangle's plane by its error bound, to the side of s, and the end pulled
+ *   in by that error along the ray, for the light's own intersection routine. Whatever else
+ *   lies on the segment blocks it. */
+inline bool segment_unblocked(const Scene* sc, Surface s, __global const Light* l, float3 q,
+                              float3 q_error, float3 q_normal, float3 wi) {
     const float3 o = offset_ray_origin(s.p, s.p_error, s.n, wi);
+    const bool triangle = l->kind == OBJECT_MESH;
+    if (triangle) {
+        q = offset_ray_origin(q, q_error, q_normal, o - q);
+    }
     const float3 to = q - o;
     const float dist = length(to);
     if (!(dist > 0.0f)) {
         return true; /* q at the spawned origin: nothing fits between */
     }
     const float3 d = to / dist;
-    const float t_max = dist - 2.0f * dot(fabs(d), q_error) - error_gamma(4.0f) * dist;
+    const float pull = error_gamma(4.0f) * dist + (triangle ? dot(fabs(d), q_error) : 0.0f);
+    const float t_max = dist - pull;
     if (!(t_max > 0.0f)) {
         return true; /* within rounding of the surface: nothing fits between */
     }
-    return scene_intersect_until(sc, o, d, t_max).kind == HIT_NONE;
+    const Hit hit = scene_intersect_until(sc, o, d, t_max);
+    return hit.kind == HIT_NONE || (!triangle && light_is_hit(l, hit));
+}
+
+/* The error bound of a point q = c + offset sampled on a sphere light: the offset's few
+ * roundings (at most 5), the sum's, and the list's centre c against the sphere the
+ * intersection routines see (the f32 rounding of the same centre, or its double-float):
+ * u |c| <= u (|q| + |offset|). Not gamma (|c| + |offset|): far from the device's origin that
+ * counts |c| six times. */
+inline float3 sphere_sample_error(float3 q, float3 offset) {
+    return error_gamma(2.0f) * fabs(q) + error_gamma(6.0f) * fabs(offset);
 }
 
 /* Samples light l from p: a direction *wi towards the point *q on it (of rounding-error bound
- * *q_error) with the solid-angle density *pdf = light_pdf(l, p, *wi, |q - p|), the chance of
- * picking l included. u.x and u.y place the point. Returns false where l offers p nothing (p
- * inside a sphere, a square seen from behind, a triangle edge-on). */
+ * *q_error, geometric normal *q_normal) with the solid-angle density *pdf = light_pdf(l, p,
+ * *wi, |q - p|), the chance of picking l included. u.x and u.y place the point. Returns false
+ * where l offers p nothing (p inside a sphere, a square seen from behind, a triangle edge-on). */
 inline bool light_sample(__global const Light* l, float3 p, float2 u, float3* wi, float3* q,
-                         float3* q_error, float* pdf) {
+                         float3* q_error, float3* q_normal, float* pdf) {
     if (l->kind == OBJECT_SPHERE && l->cap_height > 0.0f) {
         /* The visible cap (src/device/lights.rs `visible_cap`), uniformly by area: a sphere's
          * area is uniform in height along any axis (Archimedes), so the depth below the cap's
@@ -180,7 +205,8 @@ inline bool light_sample(__global const Light* l, float3 p, float2 u, float3* wi
         orthonormal_basis(axis, &t, &b);
         const float3 offset = axis * (r - below) + (t * cos(phi) + b * sin(phi)) * rho;
         *q = c + offset;
-        *q_error = error_gamma(6.0f) * (fabs(c) + fabs(offset));
+        *q_error = sphere_sample_error(*q, offset);
+        *q_normal = offset / r;
         const float3 to = *q - p;
         const float dist = sqrt(dot(to, to));
         *wi = to / dist;
@@ -213,7 +239,8 @@ inline bool light_sample(__global const Light* l, float3 p, float2 u, float3* wi
         const float t_hit = along - sqrt(fmax(0.0f, r2 - dot(perp, perp)));
         const float3 n = normalize(p + *wi * t_hit - c);
         *q = c + n * l->radius;
-        *q_error = error_gamma(6.0f) * (fabs(c) + fabs(n * l->radius));
+        *q_error = sphere_sample_error(*q, n * l->radius);
+        *q_normal = n;
         *pdf = light_pdf(l, p, *wi, t_hit);
         return true;
     }
@@ -230,6 +257,7 @@ inline bool light_sample(__global const Light* l, float3 p, float2 u, float3* wi
     /* Rounding of the sum, and of the list's corner and edges against the geometry the
      * intersection routines see (both rounded to f32 from the same f64 values). */
     *q_error = error_gamma(6.0f) * (fabs(corner) + fabs(e1) + fabs(e2));
+    *q_normal = vload3(0, l->normal);
     const float3 to = *q - p;
     const float dist = sqrt(dot(to, to));
     *wi = to / dist;
@@ -250,16 +278,16 @@ inline float3 sample_light(const Scene* sc, Surface s, uint type, float3 color, 
                            float3 ns, float4 u) {
     const uint pick = pick_light(sc, u.x);
     __global const Light* l = &sc->lights[pick];
-    float3 wi, q, q_error;
+    float3 wi, q, q_error, q_normal;
     float pdf;
-    if (bsdf_is_delta(type) || !light_sample(l, s.p, u.yz, &wi, &q, &q_error, &pdf)) {
+    if (bsdf_is_delta(type) || !light_sample(l, s.p, u.yz, &wi, &q, &q_error, &q_normal, &pdf)) {
         return (float3)(0.0f);
     }
     const float pdf_bsdf = bsdf_pdf(type, wo, wi, s.n, ns);
     if (!(pdf_bsdf > 0.0f && pdf > 0.0f && isfinite(pdf))) {
         return (float3)(0.0f);
     }
-    if (!segment_unblocked(sc, s, q, q_error, wi)) {
+    if (!segment_unblocked(sc, s, l, q, q_error, q_normal, wi)) {
         return (float3)(0.0f);
     }
     const float3 f = bsdf_eval(type, color, wo, wi, s.n, ns);

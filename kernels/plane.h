@@ -3,7 +3,8 @@
  * Reads: one Plane. Writes: nothing. The plane n.p = offset is one-sided, as the original's:
  * rays meet it only from the side n points to, which lets a scene keep smallpt's black front
  * wall while the camera looks through its back. It is limited to the points within `range` of
- * n*offset in every coordinate (the original intersected through that bounding box only).
+ * its centre in every coordinate (the original intersected through that bounding box only,
+ * around n*offset).
  */
 #ifndef CLPT_PLANE_H
 #define CLPT_PLANE_H
@@ -18,7 +19,7 @@ inline float plane_intersect(__global const Plane* pl, float3 o, float3 d, float
     if (!(t > 0.0f && t < t_max)) {
         return t_max;
     }
-    const float3 rel = o + t * d - n * pl->offset;
+    const float3 rel = o + t * d - vload3(0, pl->center);
     const float range = pl->range;
     if (fabs(rel.x) > range || fabs(rel.y) > range || fabs(rel.z) > range) {
         return t_max;

@@ -30,15 +30,22 @@ inline float2 two_prod(float a, float b) {
 }
 
 /* |o - c|^2 - r^2 as if computed in twice the precision (the Dot2 scheme of Ogita, Rump and
- * Oishi, "Accurate sum and dot product", 2005): o - c is split exactly into hi + lo, squares
- * and r^2 are exact pairs, and the rounding errors are summed apart. Error about
+ * Oishi, "Accurate sum and dot product", 2005), for the double-float centre c + c_lo and
+ * radius r + r_lo (types.h): o - c is split exactly into hi + lo (less c_lo), squares and r^2
+ * are exact pairs, and the rounding errors are summed apart. Error about
  * 2u |result| + 32 u^2 (|o - c|^2 + r^2), where plain f32 has 3u (|o - c|^2 + r^2): on a sphere
  * of radius 1e5 that is 1e-3 instead of 2e3, so the sign of the result, inside or outside,
- * is right to within 1e-8 of the surface instead of 0.01. */
-inline float sphere_excess(float3 o, float3 c, float r) {
-    const float2 fx = two_sum(o.x, -c.x);
-    const float2 fy = two_sum(o.y, -c.y);
-    const float2 fz = two_sum(o.z, -c.z);
+ * is right to within 1e-8 of the surface instead of 0.01 (and of the surface the scene's
+ * decimals give, not of its f32 rounding, which is 0.004 away there). */
+inline float sphere_excess(float3 o, float3 c, float3 c_lo, float r, float r_lo) {
+    /* o - c - c_lo = hi + (lo - c_lo): the low part's one rounding is u |c_lo|, u^2 |c|. The
+     * pair need not be normalised for the expansion below, which is exact in any split. */
+    float2 fx = two_sum(o.x, -c.x);
+    float2 fy = two_sum(o.y, -c.y);
+    float2 fz = two_sum(o.z, -c.z);
+    fx.y -= c_lo.x;
+    fy.y -= c_lo.y;
+    fz.y -= c_lo.z;
     float2 p = two_prod(fx.x, fx.x);
     float s = p.x;
     float e = p.y;
@@ -50,10 +57,11 @@ inline float sphere_excess(float3 o, float3 c, float r) {
     t = two_sum(s, p.x);
     s = t.x;
     e += t.y + p.y;
+    /* (r + r_lo)^2 = r^2 + r_lo (2 r + r_lo), r^2 an exact pair. */
     p = two_prod(r, r);
     t = two_sum(s, -p.x);
     s = t.x;
-    e += t.y - p.y;
+    e += t.y - p.y - r_lo * (2.0f * r + r_lo);
     /* (hi + lo)^2 = hi^2 + 2 hi lo + lo^2: the cross and low terms, small against hi^2. */
     e += 2.0f * (fx.x * fx.y + fy.x * fy.y + fz.x * fz.y) + (fx.y * fx.y + fy.y * fy.y + fz.y * fz.y);
     return s + e;

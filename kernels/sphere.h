@@ -25,7 +25,7 @@ inline float sphere_intersect(__global const Sphere* s, float3 o, float3 d, floa
     if (disc < 0.0f) {
         return t_max;
     }
-    const float c = sphere_excess(o, center, r);
+    const float c = sphere_excess(o, center, vload3(0, s->center_lo), r, s->radius_lo);
     const float q = -(b + copysign(sqrt(disc), b));
     float t0 = c / q;
     float t1 = q;
@@ -56,7 +56,8 @@ inline void sphere_surface(__global const Sphere* s, float3 o, float3 d, float t
     const float3 rel = raw - center;
     const float dist = length(rel);
     const float3 normal = rel / dist;
-    const float delta = sphere_excess(raw, center, r) / (dist + r);
+    const float delta =
+        sphere_excess(raw, center, vload3(0, s->center_lo), r, s->radius_lo) / (dist + r);
     *n = normal;
     *p = raw - delta * normal;
     const float u = 0x1.0p-24f;

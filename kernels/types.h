@@ -104,29 +104,37 @@ typedef struct Transform {
 } Transform;
 CLPT_ASSERT_SIZE(Transform, 96);
 
-/* A sphere (sphere.cuh), in its object space when it has a transform. */
+/* A sphere (sphere.cuh), in its object space when it has a transform. Centre and radius are
+ * double-floats, center + center_lo and radius + radius_lo (the host rounds its f64 values
+ * twice), so that a huge sphere's surface lies where the scene's decimals put it: smallpt's
+ * ceiling, centre y -99918.4, is 1.6e-3 off in f32 alone, 0.6% of the depth its light is sunk. */
 typedef struct Sphere {
     float center[3];
     float radius;
+    float center_lo[3];
+    float radius_lo;
     uint material;
     uint transform;        /* index into the Transform array, or TRANSFORM_NONE */
 } Sphere;
-CLPT_ASSERT_SIZE(Sphere, 24);
+CLPT_ASSERT_SIZE(Sphere, 40);
 
 /* A one-sided plane n.p = offset (plane.cuh), visible from the side n points to, limited to
- * the points p with |p - n*offset| <= range in every coordinate (the original's bounding box).
- * centerp, dir_u, dir_v map texture coordinates (texture issue). */
+ * the points p with |p - center| <= range in every coordinate (the original's bounding box,
+ * centred on n*offset in the scene's own coordinates; the host moves both with the
+ * camera-relative origin, src/device/upload.rs). centerp, dir_u, dir_v map texture
+ * coordinates (texture issue). */
 typedef struct Plane {
     float normal[3];       /* unit */
     float offset;
     float range;
+    float center[3];
     float centerp[3];
     float dir_u[3];
     float dir_v[3];
     uint material;
     uint transform;        /* index into the Transform array, or TRANSFORM_NONE */
 } Plane;
-CLPT_ASSERT_SIZE(Plane, 64);
+CLPT_ASSERT_SIZE(Plane, 76);
 
 /* A triangle mesh's data, shared by every instance of it (mesh.cuh): its kd-tree nodes and
  * triangle index list, its index triples (vertex numbers counted from first_vertex) and its
@@ -151,15 +159,20 @@ typedef struct MeshInstance {
 CLPT_ASSERT_SIZE(MeshInstance, 12);
 
 /* A surface of revolution (revsurface.cuh): its profile as Bezier segments of one degree,
- * degree+1 (x, y) control points each, in the scene's float2 point array. */
+ * degree+1 (x, y) control points each, in the scene's float2 point array. The host centres the
+ * profile's heights on 0 and moves the surface back by its transform, so the solver's
+ * tolerances are relative to the profile's own size (revsurface.h). */
 typedef struct RevSurface {
     uint first_point;
     uint num_segments;
     uint degree;
     uint material;
     uint transform;        /* index into the Transform array, or TRANSFORM_NONE */
+    float radius;          /* the largest |x| of its control points as stored */
+    float y_lo;            /* their least and greatest y: the hull's box */
+    float y_hi;
 } RevSurface;
-CLPT_ASSERT_SIZE(RevSurface, 20);
+CLPT_ASSERT_SIZE(RevSurface, 32);
 
 /* What a BVH leaf holds: an object of some kind, by its index among its kind. */
 #define OBJECT_SPHERE 0u

@@ -272,7 +272,7 @@ fn plane_hits_match_f64_and_spawned_rays_never_self_hit() {
         let mut hits = 0;
         for (input, got) in rays.iter().zip(&out) {
             let (o, d, w) = parts(input);
-            let want = reference::plane_hit(&plane, o, d, f64::INFINITY);
+            let want = reference::plane_hit(&scene.planes[0], o, d, f64::INFINITY);
             let got_t = (got[1] == 2.0).then_some(got[0] as f64);
             let denom = n.dot(d);
             let scale = offset.abs() as f64 + o.abs().max_element();

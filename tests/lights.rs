@@ -142,8 +142,11 @@ fn the_shipped_lights_scene_lists_all_its_emitters() {
     );
 }
 
+/// The packed scene, its lights and room in the scene's coordinates.
 fn pack(scene: &Scene) -> PackedScene {
-    PackedScene::new(scene, u64::MAX).unwrap_or_else(|e| panic!("{e}"))
+    common::in_scene_coordinates(
+        PackedScene::new(scene, u64::MAX).unwrap_or_else(|e| panic!("{e}")),
+    )
 }
 
 /// The room of case2: x in [-100, 100], y in [0, 160], z in [-100, 1000].

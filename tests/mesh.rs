@@ -437,8 +437,9 @@ fn transformed_spheres_planes_and_meshes_match_f64() {
         ] {
             let scene = scene_in(&dir, &format!("Transform {{ {} {object} }}", op_text(&ops)));
             let packed = pack(&scene);
+            // The object's box, moved from the device's coordinates to the scene's.
             let world = packed.object_boxes[0];
-            let (c, size) = (world.center(), world.extent().length());
+            let (c, size) = (world.center() + packed.origin, world.extent().length());
             let rays: Vec<[f32; 9]> = (0..4000)
                 .map(|_| {
                     let o = c + common::random_unit(&mut rng) * size * 1.5;
@@ -462,9 +463,12 @@ fn transformed_spheres_planes_and_meshes_match_f64() {
                         },
                     ),
                     2 => {
+                        // Normal +z (the default), its box centred on n * offset as the
+                        // scene's is.
                         let plane = clpt::device::layout::Plane {
                             offset: 0.25,
                             range: 2.0,
+                            center: [0.0, 0.0, 0.25],
                             ..Default::default()
                         };
                         common::reference::plane_hit(&plane, lo, ld, f64::INFINITY)

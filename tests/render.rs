@@ -229,8 +229,8 @@ type PixelSums = (usize, [f64; 3], [f64; 3]);
 
 /// Per-pixel sums of the f64 reference path tracer, on two threads.
 fn reference_film(scene: &Scene, spp: u32) -> Film {
-    let packed = clpt::device::upload::PackedScene::new(scene, u64::MAX).unwrap();
-    let (w, h) = (packed.camera.width, packed.camera.height);
+    let world = common::reference::World::new(scene);
+    let (w, h) = (world.camera.width, world.camera.height);
     let mut sum = vec![[0.0f32; 4]; (w * h) as usize];
     let mut sum_sq = sum.clone();
     let rows: Vec<u32> = (0..h).collect();
@@ -238,7 +238,7 @@ fn reference_film(scene: &Scene, spp: u32) -> Film {
         let handles: Vec<_> = rows
             .chunks(h.div_ceil(2) as usize)
             .map(|chunk| {
-                let packed = &packed;
+                let world = &world;
                 s.spawn(move || {
                     let mut out = Vec::new();
                     for &y in chunk {
@@ -246,7 +246,8 @@ fn reference_film(scene: &Scene, spp: u32) -> Film {
                         for x in 0..w {
                             let (mut s1, mut s2) = (DVec3::ZERO, DVec3::ZERO);
                             for _ in 0..spp {
-                                let l = common::reference::trace_path(packed, x, y, 3, &mut rng);
+                                let l =
+                                    common::reference::trace_path(world, x, y, 3, None, &mut rng);
                                 s1 += l;
                                 s2 += l * l;
                             }
@@ -275,7 +276,7 @@ fn reference_film(scene: &Scene, spp: u32) -> Film {
 #[test]
 fn smallpt_region_means_match_f64_reference() {
     let scene = smallpt_at(64, 48);
-    let packed = clpt::device::upload::PackedScene::new(&scene, u64::MAX).unwrap();
+    let world = common::reference::World::new(&scene);
     // The device with either roulette threshold (and light sampling, over the light's visible
     // cap), against the f64 path tracer's own estimator (pure path tracing, pbrt's roulette).
     let device_films = [1.0, 0.3].map(|threshold| {
@@ -302,11 +303,11 @@ fn smallpt_region_means_match_f64_reference() {
         ("mirror ball", vec![]),
         ("glass ball", vec![]),
     ];
-    let cam = &packed.camera;
+    let cam = &world.camera;
     for y in 0..cam.height {
         for x in 0..cam.width {
             let d = common::reference::camera_direction(cam, x, y, [0.25, 0.25]).normalize();
-            let Some((t, kind, index)) = common::reference::nearest(&packed, cam.origin, d) else {
+            let Some((t, kind, index)) = world.nearest(cam.origin, d) else {
                 continue;
             };
             let p = cam.origin + t * d;

@@ -49,6 +49,8 @@ fn profiles() -> Vec<(&'static str, Curve)> {
     ]
 }
 
+/// The surface alone, with the camera at the scene's origin: the device's coordinates are then
+/// the scene's, and the probe's rays reach the device unrounded.
 fn scene_text(curve: &Curve) -> String {
     let kind = match curve.kind {
         CurveKind::Bezier => "BezierCurve",
@@ -60,7 +62,7 @@ fn scene_text(curve: &Curve) -> String {
         .map(|p| format!("[ {} {} 0 ] ", p.x, p.y))
         .collect();
     format!(
-        "PerspectiveCamera {{ center 0 0 10 direction 0 0 -1 angle 30 width 8 height 8 }}\n\
+        "PerspectiveCamera {{ center 0 0 0 direction 0 0 -1 angle 30 width 8 height 8 }}\n\
          Materials {{ numMaterials 1 Material {{ color 0.5 0.5 0.5 }} }}\n\
          Group {{ numObjects 1 RevSurface {{ profile {kind} {{ controls {controls} }} }} }}\n"
     )

@@ -649,8 +649,8 @@ fn quadrature_mean(
     dir_u: f64,
     dir_v: f64,
 ) -> [f64; 3] {
-    let packed = PackedScene::new(scene, u64::MAX).unwrap();
-    let cam = &packed.camera;
+    // In the scene's coordinates (the device's camera sits at their origin).
+    let cam = &clpt::scene::camera::CameraBasis::new(&scene.camera).unwrap();
     let k = 24;
     let mut sum = [0.0; 3];
     let mut n = 0.0;

@@ -162,8 +162,11 @@ pub struct RevSurface {
     pub degree: u32,
     pub material: u32,
     pub transform: u32,
+    pub radius: f32,
+    pub y_lo: f32,
+    pub y_hi: f32,
 }
-const _: () = assert!(size_of::<RevSurface>() == 20);
+const _: () = assert!(size_of::<RevSurface>() == 32);
 
 /// `Transform` in `types.h`.
 #[repr(C)]
@@ -180,19 +183,36 @@ const _: () = assert!(size_of::<Transform>() == 96);
 pub struct Sphere {
     pub center: [f32; 3],
     pub radius: f32,
+    pub center_lo: [f32; 3],
+    pub radius_lo: f32,
     pub material: u32,
     pub transform: u32,
 }
-const _: () = assert!(size_of::<Sphere>() == 24);
+const _: () = assert!(size_of::<Sphere>() == 40);
 
 impl Default for Sphere {
     fn default() -> Self {
         Sphere {
             center: [0.0; 3],
             radius: 1.0,
+            center_lo: [0.0; 3],
+            radius_lo: 0.0,
             material: 0,
             transform: TRANSFORM_NONE,
         }
+    }
+}
+
+impl Sphere {
+    /// The double-float centre `center + center_lo`, in f64.
+    pub fn center_f64(&self) -> glam::DVec3 {
+        glam::DVec3::from(self.center.map(f64::from))
+            + glam::DVec3::from(self.center_lo.map(f64::from))
+    }
+
+    /// The double-float radius `radius + radius_lo`, in f64.
+    pub fn radius_f64(&self) -> f64 {
+        f64::from(self.radius) + f64::from(self.radius_lo)
     }
 }
 
@@ -258,13 +278,14 @@ pub struct Plane {
     pub normal: [f32; 3],
     pub offset: f32,
     pub range: f32,
+    pub center: [f32; 3],
     pub centerp: [f32; 3],
     pub dir_u: [f32; 3],
     pub dir_v: [f32; 3],
     pub material: u32,
     pub transform: u32,
 }
-const _: () = assert!(size_of::<Plane>() == 64);
+const _: () = assert!(size_of::<Plane>() == 76);
 
 impl Default for Plane {
     fn default() -> Self {
@@ -272,6 +293,7 @@ impl Default for Plane {
             normal: [0.0, 0.0, 1.0],
             offset: 0.0,
             range: 1.0,
+            center: [0.0; 3],
             centerp: [0.0; 3],
             dir_u: [0.0; 3],
             dir_v: [0.0; 3],
@@ -343,7 +365,8 @@ pub const LAYOUT: &[StructLayout] = &[
     }),
     layout!(Transform, "Transform", { m => "m", inv => "inv" }),
     layout!(Sphere, "Sphere", {
-        center => "center", radius => "radius", material => "material", transform => "transform",
+        center => "center", radius => "radius", center_lo => "center_lo",
+        radius_lo => "radius_lo", material => "material", transform => "transform",
     }),
     layout!(MeshDesc, "MeshDesc", {
         first_node => "first_node", first_index => "first_index",
@@ -362,10 +385,12 @@ pub const LAYOUT: &[StructLayout] = &[
     }),
     layout!(RevSurface, "RevSurface", {
         first_point => "first_point", num_segments => "num_segments", degree => "degree",
-        material => "material", transform => "transform",
+        material => "material", transform => "transform", radius => "radius", y_lo => "y_lo",
+        y_hi => "y_hi",
     }),
     layout!(Plane, "Plane", {
-        normal => "normal", offset => "offset", range => "range", centerp => "centerp",
+        normal => "normal", offset => "offset", range => "range", center => "center",
+        centerp => "centerp",
         dir_u => "dir_u", dir_v => "dir_v", material => "material", transform => "transform",
     }),
     layout!(RenderParams, "RenderParams", {

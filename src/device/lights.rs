@@ -139,8 +139,8 @@ pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
         let Some(scale) = affine.uniform_scale() else {
             continue; // an ellipsoid
         };
-        let radius = f64::from(s.radius) * scale;
-        let center = affine.point(dvec(s.center));
+        let radius = s.radius_f64() * scale;
+        let center = affine.point(s.center_f64());
         let mut light = Light {
             kind: layout::OBJECT_SPHERE,
             index: i as u32,
@@ -171,12 +171,12 @@ pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
         if p.normal.iter().filter(|&&c| c != 0.0).count() != 1 {
             continue; // tilted: its visible part is a polygon
         }
-        // The square n offset + [-range, range] along the two other axes: what the plane's
+        // The square centre + [-range, range] along the two other axes: what the plane's
         // range test (plane.h) keeps of it.
         let a = if n.x != 0.0 { DVec3::Y } else { DVec3::X };
         let b = if n.z != 0.0 { DVec3::Y } else { DVec3::Z };
         let range = f64::from(p.range);
-        let corner = n * f64::from(p.offset) - (a + b) * range;
+        let corner = dvec(p.center) - (a + b) * range;
         let affine = Affine::of(scene.transforms, p.transform);
         let (mut e1, mut e2) = (
             affine.vector(a * 2.0 * range),
@@ -281,14 +281,19 @@ pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
 }
 
 /// One line for `clpt render -v`: how many spheres, squares and triangles the list holds, and
-/// the room its emitters are clipped to.
-pub fn report(lights: &[Light], room: Option<&Room>) -> String {
+/// the room its emitters are clipped to (in the scene's coordinates, the device's moved back by
+/// the camera-relative `origin`).
+pub fn report(lights: &[Light], room: Option<&Room>, origin: DVec3) -> String {
     let count = |kind| lights.iter().filter(|l| l.kind == kind).count();
     let clipped = match room {
-        Some(r) => format!(
-            "clipped to the closed room [{}, {}] x [{}, {}] x [{}, {}] (planes {:?})",
-            r.lo.x, r.hi.x, r.lo.y, r.hi.y, r.lo.z, r.hi.z, r.walls
-        ),
+        Some(r) => {
+            // In the scene's coordinates: the device's are relative to `origin`.
+            let (lo, hi) = (r.lo + origin, r.hi + origin);
+            format!(
+                "clipped to the closed room [{}, {}] x [{}, {}] x [{}, {}] (planes {:?})",
+                lo.x, hi.x, lo.y, hi.y, lo.z, hi.z, r.walls
+            )
+        }
         None => "no closed room around the camera: emitters sampled whole".to_string(),
     };
     format!(
@@ -402,7 +407,13 @@ pub fn closed_room(scene: &LightSources) -> Option<Room> {
         {
             continue;
         }
-        walls.push((2 * k + usize::from(nk < 0.0), c, range, i as u32));
+        walls.push((
+            2 * k + usize::from(nk < 0.0),
+            c,
+            range,
+            dvec(p.center),
+            i as u32,
+        ));
     }
     let scale = eye
         .iter()
@@ -414,15 +425,15 @@ pub fn closed_room(scene: &LightSources) -> Option<Room> {
         return None;
     }
     // Per side, the walls with every eye point more than the tolerance in front, nearest first.
-    let mut sides: [Vec<(f64, f64, u32)>; 6] = Default::default();
-    for (side, c, range, i) in walls {
+    let mut sides: [Vec<(f64, f64, DVec3, u32)>; 6] = Default::default();
+    for (side, c, range, center, i) in walls {
         let k = side / 2;
         let upper = side % 2 == 1;
         if eye
             .iter()
             .all(|p| if upper { c - p[k] } else { p[k] - c } > tolerance)
         {
-            sides[side].push((c, range, i));
+            sides[side].push((c, range, center, i));
         }
     }
     for (side, walls) in sides.iter_mut().enumerate() {
@@ -438,7 +449,7 @@ pub fn closed_room(scene: &LightSources) -> Option<Room> {
     // elsewhere the face only grows, so a wall passed over never becomes usable again.
     let mut pick = [0usize; 6];
     loop {
-        let mut chosen = [(0.0, 0.0, 0u32); 6];
+        let mut chosen = [(0.0, 0.0, DVec3::ZERO, 0u32); 6];
         for side in 0..6 {
             chosen[side] = *sides[side].get(pick[side])?;
         }
@@ -446,10 +457,10 @@ pub fn closed_room(scene: &LightSources) -> Option<Room> {
         let hi = DVec3::new(chosen[1].0, chosen[3].0, chosen[5].0);
         let mut closed = true;
         for side in 0..6 {
-            let range = chosen[side].1;
+            let (_, range, center, _) = chosen[side];
             let covered = (0..3)
                 .filter(|&j| j != side / 2)
-                .all(|j| lo[j].abs().max(hi[j].abs()) <= range);
+                .all(|j| lo[j] >= center[j] - range && hi[j] <= center[j] + range);
             if !covered {
                 pick[side] += 1;
                 closed = false;
@@ -460,7 +471,7 @@ pub fn closed_room(scene: &LightSources) -> Option<Room> {
                 lo,
                 hi,
                 tolerance,
-                walls: chosen.map(|w| w.2),
+                walls: chosen.map(|w| w.3),
             });
         }
     }
@@ -512,7 +523,7 @@ pub fn visible_cap(
         if j == light || s.transform != layout::TRANSFORM_NONE || !reflects_only(scene, m) {
             continue;
         }
-        let (c2, r2) = (dvec(s.center), f64::from(s.radius));
+        let (c2, r2) = (s.center_f64(), s.radius_f64());
         // Rounding of the device's sphere (f32 centre, double-float distance test, refined
         // hits): a few f32 ulps of its coordinates.
         let tolerance = 4.0 * f64::from(f32::EPSILON) * (c2.abs().max_element() + r2);

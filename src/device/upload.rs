@@ -3,6 +3,21 @@
 //! planes, transforms, meshes (each OBJ file loaded and its kd-tree built once, however many
 //! instances use it), the object table and the BVH over it; and uploads them
 //! ([`SceneBuffers`]).
+//!
+//! Precision. f32 spaces its values by 2^-24 of their size, so a scene stored as written
+//! rounds a surface 1e6 from the scene's origin by 0.03, whatever the scene's own scale. Here
+//! the device's coordinates are camera-relative (as in renderers for large worlds): the host
+//! works in f64 and moves everything by minus the camera's position before rounding, through
+//! untransformed objects' coordinates and transformed objects' transforms (object space itself
+//! is left as it is), so rounding is relative to distances from the camera. Three stores go
+//! further: sphere centres and radii are double-floats (a huge sphere's surface near the camera
+//! is otherwise off by the rounding of its radius, 0.004 on smallpt's walls of radius 1e5); a
+//! plane's offset is taken through its box centre, about which the rounding of its normal
+//! tilts it; and a surface of revolution's profile is stored with its heights centred on 0,
+//! the shift folded into its transform, so that its solver's tolerances are relative to the
+//! profile's size (revsurface.h). Meshes without a transform have their vertices moved (those
+//! with one keep them, and get the move in the transform); an OBJ file used both ways is
+//! loaded once for each.
 
 use super::Device;
 use super::layout::{
@@ -40,6 +55,12 @@ pub struct MeshInfo {
 /// The scene as the kernels read it.
 #[derive(Clone, Debug, Default)]
 pub struct PackedScene {
+    /// Where the device's coordinates are centred, in the scene's: the camera's position.
+    /// Every position, box, transform and light is moved by `-origin` in f64 before it is
+    /// rounded to f32, so what the camera sees is stored with the precision of its distance
+    /// from the camera, not of its distance from the scene's origin (module doc).
+    pub origin: DVec3,
+    /// The camera, at the device's origin.
     pub camera: CameraBasis,
     pub materials: Vec<Material>,
     pub spheres: Vec<Sphere>,
@@ -71,6 +92,17 @@ pub struct PackedScene {
 
 pub(super) fn f32x3(v: DVec3) -> [f32; 3] {
     v.as_vec3().to_array()
+}
+
+/// `v` as a double-float: its f32 rounding and the f32 rounding of what that leaves.
+fn split_f32(v: f64) -> (f32, f32) {
+    let hi = v as f32;
+    (hi, (v - f64::from(hi)) as f32)
+}
+
+fn split_f32x3(v: DVec3) -> ([f32; 3], [f32; 3]) {
+    let [(x, xl), (y, yl), (z, zl)] = v.to_array().map(split_f32);
+    ([x, y, z], [xl, yl, zl])
 }
 
 /// The world box of an object-space box under `m` (all eight corners: the original took two).
@@ -112,10 +144,16 @@ impl PackedScene {
         max_mesh_bytes: u64,
     ) -> Result<PackedScene> {
         let textures = TexturePack::load(scene, max_texture_pixels)?;
+        let mut camera = CameraBasis::new(&scene.camera)?;
+        let origin = camera.origin;
+        camera.origin = DVec3::ZERO;
         let mut packed = PackedScene {
-            camera: CameraBasis::new(&scene.camera)?,
+            origin,
+            camera,
             ..PackedScene::default()
         };
+        // Object-to-device transforms: the scene's, then the move to the camera-relative origin.
+        let to_device = DMat4::from_translation(-origin);
         packed.materials = scene
             .materials
             .iter()
@@ -137,7 +175,8 @@ impl PackedScene {
             )
             .collect();
         packed.textures = textures;
-        let mut loaded: HashMap<PathBuf, u32> = HashMap::new();
+        // Each OBJ file's mesh, by whether its vertices are moved to the device's origin.
+        let mut loaded: HashMap<(PathBuf, bool), u32> = HashMap::new();
         for object in &scene.objects {
             if object.material >= packed.materials.len() {
                 return Err(Error::Invalid(format!(
@@ -148,12 +187,23 @@ impl PackedScene {
                 )));
             }
             let material = object.material as u32;
-            let transform = object.transform.as_ref();
+            let placed = object.transform.map(|m| to_device * m);
+            let transform = placed.as_ref();
+            // Where an untransformed object's coordinates go on the device.
+            let shift = if transform.is_some() {
+                DVec3::ZERO
+            } else {
+                -origin
+            };
             match &object.shape {
                 Shape::Sphere { center, radius } => {
+                    let (center, center_lo) = split_f32x3(*center + shift);
+                    let (radius, radius_lo) = split_f32(*radius);
                     let sphere = Sphere {
-                        center: f32x3(*center),
-                        radius: *radius as f32,
+                        center,
+                        radius,
+                        center_lo,
+                        radius_lo,
                         material,
                         transform: packed.push_transform(transform),
                     };
@@ -167,14 +217,19 @@ impl PackedScene {
                     dir_u,
                     dir_v,
                 } => {
-                    // n.p = offset with n as written: store the unit normal and scale the
-                    // offset with it, so the plane is the same set of points.
+                    // n.p = offset with n as written: the unit normal, and the offset through
+                    // the box centre with that normal as rounded, so that its rounding tilts
+                    // the plane about the centre (on the part a ray can meet) rather than about
+                    // the origin (module doc).
                     let len = normal.length();
+                    let unit = f32x3(*normal / len);
+                    let center = (*normal / len) * (*offset / len) + shift;
                     let plane = Plane {
-                        normal: f32x3(*normal / len),
-                        offset: (*offset / len) as f32,
+                        normal: unit,
+                        offset: DVec3::from(unit.map(f64::from)).dot(center) as f32,
                         range: *range as f32,
-                        centerp: f32x3(*centerp),
+                        center: f32x3(center),
+                        centerp: f32x3(*centerp + shift),
                         dir_u: f32x3(*dir_u),
                         dir_v: f32x3(*dir_v),
                         material,
@@ -184,17 +239,38 @@ impl PackedScene {
                 }
                 Shape::RevSurface { curve } => {
                     let segments = curve.bezier_segments();
+                    let points = || segments.iter().flatten();
+                    // Heights centred on 0, the shift folded into the transform (module doc).
+                    let (y_min, y_max) = points()
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                            (lo.min(p.y), hi.max(p.y))
+                        });
+                    let y_mid = 0.5 * (y_min + y_max);
+                    let placement = DMat4::from_translation(DVec3::new(0.0, y_mid, 0.0));
+                    let centred = Some(placed.unwrap_or(to_device) * placement)
+                        .filter(|m| *m != DMat4::IDENTITY);
+                    let stored: Vec<[f32; 2]> = points()
+                        .map(|p| [p.x as f32, (p.y - y_mid) as f32])
+                        .collect();
+                    let radius = stored.iter().fold(0.0f32, |r, p| r.max(p[0].abs()));
+                    let (y_lo, y_hi) = stored
+                        .iter()
+                        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+                            (lo.min(p[1]), hi.max(p[1]))
+                        });
                     let revsurface = RevSurface {
                         first_point: packed.rev_points.len() as u32,
                         num_segments: segments.len() as u32,
                         degree: curve.degree() as u32,
                         material,
-                        transform: packed.push_transform(transform),
+                        transform: packed.push_transform(centred.as_ref()),
+                        radius,
+                        y_lo,
+                        y_hi,
                     };
-                    packed
-                        .rev_points
-                        .extend(segments.iter().flatten().map(|p| [p.x as f32, p.y as f32]));
-                    let b = transform_box(&curve.revolution_bounds(), transform);
+                    packed.rev_points.extend(stored);
+                    let world = placed.unwrap_or(to_device);
+                    let b = transform_box(&curve.revolution_bounds(), Some(&world));
                     packed.push_object(layout::OBJECT_REVSURFACE, packed.revsurfaces.len(), b);
                     packed.revsurfaces.push(revsurface);
                 }
@@ -205,12 +281,18 @@ impl PackedScene {
                         scene.base_dir.as_deref(),
                         &object.location,
                     )?;
-                    let mesh = match loaded.get(&path) {
+                    let key = (path, transform.is_none());
+                    let mesh = match loaded.get(&key) {
                         Some(&m) => m,
                         None => {
-                            let mesh = TriangleMesh::load_within(&path, max_mesh_bytes)?;
+                            let mut mesh = TriangleMesh::load_within(&key.0, max_mesh_bytes)?;
+                            if shift != DVec3::ZERO {
+                                for v in &mut mesh.positions {
+                                    *v = f32x3(DVec3::from(v.map(f64::from)) + shift);
+                                }
+                            }
                             let m = packed.push_mesh(mesh)?;
-                            loaded.insert(path, m);
+                            loaded.insert(key, m);
                             m
                         }
                     };
@@ -239,7 +321,9 @@ impl PackedScene {
         Ok(packed)
     }
 
-    /// A scene of untransformed spheres and planes made in code (tests, probes).
+    /// A scene of untransformed spheres and planes made in code (tests, probes), in device
+    /// coordinates (origin 0); each plane's box is centred on `normal * offset`, as a scene
+    /// file's is.
     pub fn from_parts(
         camera: CameraBasis,
         materials: Vec<Material>,
@@ -254,7 +338,8 @@ impl PackedScene {
         for s in spheres {
             packed.push_sphere(s, None);
         }
-        for p in planes {
+        for mut p in planes {
+            p.center = p.normal.map(|c| c * p.offset);
             packed.push_plane(p, None);
         }
         packed.build_bvh();
@@ -284,8 +369,8 @@ impl PackedScene {
     }
 
     fn push_sphere(&mut self, s: Sphere, transform: Option<&DMat4>) {
-        let c = DVec3::from(s.center.map(f64::from));
-        let r = DVec3::splat(s.radius as f64);
+        let c = s.center_f64();
+        let r = DVec3::splat(s.radius_f64());
         let b = transform_box(
             &Aabb {
                 lo: c - r,
@@ -298,9 +383,8 @@ impl PackedScene {
     }
 
     fn push_plane(&mut self, p: Plane, transform: Option<&DMat4>) {
-        // The original's finite plane: the cube of half-size `range` around n * offset.
-        let n = DVec3::from(p.normal.map(f64::from));
-        let c = n * p.offset as f64;
+        // The original's finite plane: the cube of half-size `range` around its centre.
+        let c = DVec3::from(p.center.map(f64::from));
         let r = DVec3::splat(p.range as f64);
         let b = transform_box(
             &Aabb {
@@ -393,7 +477,15 @@ impl PackedScene {
             ));
         }
         out.push('\n');
-        out.push_str(&lights::report(&self.lights, self.room.as_ref()));
+        out.push_str(&format!(
+            "device coordinates centred on the camera at ({}, {}, {})\n",
+            self.origin.x, self.origin.y, self.origin.z
+        ));
+        out.push_str(&lights::report(
+            &self.lights,
+            self.room.as_ref(),
+            self.origin,
+        ));
         out
     }
 

@@ -59,14 +59,31 @@ impl Probes {
 }
 
 /// The light list of `every_light_scene`, its files under a folder of the test's own (`test`:
-/// tests run in parallel).
+/// tests run in parallel), in the scene's coordinates.
 pub fn every_light_scene_lights(test: &str) -> Vec<clpt::device::layout::Light> {
     let dir = std::env::temp_dir().join(format!("clpt-{}-{test}", std::process::id()));
     let scene = every_light_scene(&dir);
     let packed =
         clpt::device::upload::PackedScene::new(&scene, u64::MAX).unwrap_or_else(|e| panic!("{e}"));
     let _ = std::fs::remove_dir_all(&dir);
-    packed.lights
+    in_scene_coordinates(packed).lights
+}
+
+/// `packed` with its light list and closed room moved from the device's camera-relative
+/// coordinates back to the scene's (by `packed.origin`, in f64), for tests that check them
+/// against the scene file's numbers.
+pub fn in_scene_coordinates(mut packed: PackedScene) -> PackedScene {
+    let origin = packed.origin;
+    for l in &mut packed.lights {
+        l.corner = (DVec3::from(l.corner.map(f64::from)) + origin)
+            .as_vec3()
+            .to_array();
+    }
+    if let Some(room) = &mut packed.room {
+        room.lo += origin;
+        room.hi += origin;
+    }
+    packed
 }
 
 /// A device buffer holding `data`.
@@ -129,7 +146,8 @@ pub fn packed(spheres: Vec<Sphere>, planes: Vec<Plane>, materials: Vec<Material>
 }
 
 /// Runs a probe that takes the scene and rays of 9 floats (o, d, w) and writes `width` floats
-/// per ray (probe_hit, probe_mapping in probes.cl).
+/// per ray (probe_hit, probe_mapping in probes.cl). The rays are in the scene's coordinates:
+/// their origins are moved to the device's, relative to `scene.origin`, in f64.
 pub fn probe_scene_rays(
     device: &Device,
     scene: &PackedScene,
@@ -139,7 +157,17 @@ pub fn probe_scene_rays(
 ) -> Vec<f32> {
     let params = scene.params(0, 1, 1, 0);
     let buffers = SceneBuffers::new(device, scene, &params).expect("upload");
-    let flat: Vec<f32> = rays.iter().flatten().copied().collect();
+    let origin = scene.origin.to_array();
+    let flat: Vec<f32> = rays
+        .iter()
+        .flat_map(|r| {
+            let mut r = *r;
+            for k in 0..3 {
+                r[k] = (f64::from(r[k]) - origin[k]) as f32;
+            }
+            r
+        })
+        .collect();
     let input = buffer(device, &flat);
     let out = output::<f32>(device, rays.len() * width);
     let program = probes(device);
@@ -157,11 +185,19 @@ pub fn probe_scene_rays(
 }
 
 /// probe_hit: for each (o, d, w), the device's first hit of (o, d) and of the ray it spawns
-/// towards w. Records as documented in probes.cl (16 floats).
+/// towards w. Records as documented in probes.cl (16 floats), the hit point moved back to the
+/// scene's coordinates.
 pub fn probe_hits(device: &Device, scene: &PackedScene, rays: &[[f32; 9]]) -> Vec<[f32; 16]> {
+    let origin = scene.origin.to_array();
     probe_scene_rays(device, scene, "probe_hit", rays, 16)
         .chunks_exact(16)
-        .map(|c| c.try_into().expect("16 floats"))
+        .map(|c| {
+            let mut hit: [f32; 16] = c.try_into().expect("16 floats");
+            for k in 0..3 {
+                hit[3 + k] = (f64::from(hit[3 + k]) + origin[k]) as f32;
+            }
+            hit
+        })
         .collect()
 }
 

@@ -1,12 +1,15 @@
 //! An f64 reference of what the kernels compute, written independently of them: ray/sphere and
 //! ray/plane intersection, the camera, and a path tracer with the same estimator (smallpt's
-//! materials, Russian roulette) but its own random numbers. Inputs are the f32 scene the device
-//! gets, widened exactly to f64, so differences are the device's rounding alone.
+//! materials, Russian roulette) but its own random numbers. The intersection routines take the
+//! device's structs, widened exactly to f64 (double-float sphere centres and radii summed), so
+//! differences are the device's rounding alone; the path tracer takes the scene as parsed
+//! ([`World`]), in f64 from its decimals, so it sees what the scene file says rather than what
+//! the host made of it.
 #![allow(dead_code)]
 
-use clpt::device::layout::{self, Plane, Sphere};
-use clpt::device::upload::PackedScene;
+use clpt::device::layout::{Plane, Sphere};
 use clpt::scene::camera::CameraBasis;
+use clpt::scene::{MaterialKind, Scene, Shape};
 use glam::DVec3;
 use rand::{Rng, RngExt};
 
@@ -17,8 +20,8 @@ pub fn v3(a: [f32; 3]) -> DVec3 {
 /// Both roots of |o + t d - c| = r (d unit), computed in f64 with the stable formulas; None if
 /// the ray's line misses.
 pub fn sphere_roots(s: &Sphere, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
-    let c = v3(s.center);
-    let r = s.radius as f64;
+    let c = s.center_f64();
+    let r = s.radius_f64();
     let f = o - c;
     let b = f.dot(d);
     let perp = f - b * d;
@@ -47,25 +50,101 @@ pub fn plane_hit(p: &Plane, o: DVec3, d: DVec3, t_max: f64) -> Option<f64> {
     if !(t > 0.0 && t < t_max) {
         return None;
     }
-    let rel = o + t * d - n * p.offset as f64;
+    let rel = o + t * d - v3(p.center);
     let range = p.range as f64;
     (rel.abs().max_element() <= range).then_some(t)
 }
 
-/// The object a ray meets first: (t, kind as in objects.h: 1 sphere, 2 plane, index).
-pub fn nearest(scene: &PackedScene, o: DVec3, d: DVec3) -> Option<(f64, u32, usize)> {
-    let mut best: Option<(f64, u32, usize)> = None;
-    for (i, s) in scene.spheres.iter().enumerate() {
-        if let Some(t) = sphere_hit(s, o, d, best.map_or(f64::INFINITY, |b| b.0)) {
-            best = Some((t, 1, i));
+/// A scene of untransformed spheres and planes as its file says, in f64 and in the scene's
+/// own coordinates (not the device's camera-relative ones).
+pub struct World {
+    pub camera: CameraBasis,
+    /// (centre, radius, material)
+    pub spheres: Vec<(DVec3, f64, usize)>,
+    pub planes: Vec<WorldPlane>,
+    pub materials: Vec<clpt::scene::Material>,
+}
+
+/// n.p = offset (n unit) within `range` of `center` in every coordinate, seen from n's side.
+pub struct WorldPlane {
+    pub normal: DVec3,
+    pub offset: f64,
+    pub range: f64,
+    pub center: DVec3,
+    pub material: usize,
+}
+
+impl World {
+    pub fn new(scene: &Scene) -> World {
+        let mut world = World {
+            camera: CameraBasis::new(&scene.camera).expect("camera"),
+            spheres: vec![],
+            planes: vec![],
+            materials: scene.materials.clone(),
+        };
+        for object in &scene.objects {
+            assert!(
+                object.transform.is_none(),
+                "the reference takes no transforms"
+            );
+            match object.shape {
+                Shape::Sphere { center, radius } => {
+                    world.spheres.push((center, radius, object.material))
+                }
+                Shape::Plane {
+                    normal,
+                    offset,
+                    range,
+                    ..
+                } => {
+                    let len = normal.length();
+                    world.planes.push(WorldPlane {
+                        normal: normal / len,
+                        offset: offset / len,
+                        range,
+                        center: normal * (offset / (len * len)),
+                        material: object.material,
+                    })
+                }
+                _ => panic!("the reference takes spheres and planes only"),
+            }
         }
+        world
     }
-    for (i, p) in scene.planes.iter().enumerate() {
-        if let Some(t) = plane_hit(p, o, d, best.map_or(f64::INFINITY, |b| b.0)) {
-            best = Some((t, 2, i));
+
+    /// The object a ray meets first: (t, kind as in objects.h: 1 sphere, 2 plane, index).
+    pub fn nearest(&self, o: DVec3, d: DVec3) -> Option<(f64, u32, usize)> {
+        let mut best: Option<(f64, u32, usize)> = None;
+        for (i, &(c, r, _)) in self.spheres.iter().enumerate() {
+            let f = o - c;
+            let b = f.dot(d);
+            let disc = r * r - (f - b * d).length_squared();
+            if disc < 0.0 {
+                continue;
+            }
+            let cc = (f.length() - r) * (f.length() + r);
+            let q = -(b + disc.sqrt().copysign(b));
+            let t_max = best.map_or(f64::INFINITY, |b| b.0);
+            if let Some(t) = [(cc / q).min(q), (cc / q).max(q)]
+                .into_iter()
+                .find(|&t| t > 0.0 && t < t_max)
+            {
+                best = Some((t, 1, i));
+            }
         }
+        for (i, p) in self.planes.iter().enumerate() {
+            let denom = p.normal.dot(d);
+            if denom >= 0.0 {
+                continue;
+            }
+            let t = (p.offset - p.normal.dot(o)) / denom;
+            let t_max = best.map_or(f64::INFINITY, |b| b.0);
+            if t > 0.0 && t < t_max && (o + t * d - p.center).abs().max_element() <= p.range {
+                best = Some((t, 2, i));
+            }
+        }
+        best
     }
-    best
 }
 
 /// smallpt's tent filter.
@@ -125,12 +204,53 @@ fn cosine_direction(n: DVec3, u1: f64, u2: f64) -> DVec3 {
     (t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u2).max(0.0).sqrt()).normalize()
 }
 
-/// One path sample through pixel (px, py), in f64 with `rng`.
+/// Light from sphere `light` arriving at p (diffuse, unit normal `facing`, albedo `color`), by
+/// one sample uniform in the cone the sphere subtends (its nearer side), the sample's point
+/// seen from p (nothing nearer along the ray): f cos Le / pdf.
+fn sphere_light_sample(
+    scene: &World,
+    light: usize,
+    p: DVec3,
+    facing: DVec3,
+    color: DVec3,
+    rng: &mut impl Rng,
+) -> DVec3 {
+    let (c, r, material) = scene.spheres[light];
+    let pc = c - p;
+    let d2 = pc.length_squared();
+    if d2 <= r * r {
+        return DVec3::ZERO;
+    }
+    let one_minus_cos_max = (r * r / d2) / (1.0 + (1.0 - r * r / d2).sqrt());
+    let v = rng.random::<f64>() * one_minus_cos_max;
+    let (cos_t, sin_t) = (1.0 - v, (v * (2.0 - v)).sqrt());
+    let phi = 2.0 * std::f64::consts::PI * rng.random::<f64>();
+    let w = pc / d2.sqrt();
+    let (t, b) = w.any_orthonormal_pair();
+    let wi = (t * (sin_t * phi.cos()) + b * (sin_t * phi.sin()) + w * cos_t).normalize();
+    let cos_p = wi.dot(facing);
+    if cos_p <= 0.0 {
+        return DVec3::ZERO;
+    }
+    let o = p + facing * 1e-7 * (1.0 + p.abs().max_element());
+    match scene.nearest(o, wi) {
+        Some((_, 1, i)) if i == light => {
+            let pdf = 1.0 / (2.0 * std::f64::consts::PI * one_minus_cos_max);
+            color / std::f64::consts::PI * cos_p * scene.materials[material].emission / pdf
+        }
+        _ => DVec3::ZERO,
+    }
+}
+
+/// One path sample through pixel (px, py), in f64 with `rng`: pure path tracing, or with
+/// `light` the index of a sphere light, next-event estimation of it at diffuse vertices (and its
+/// emission found by their BSDF samples left out; that of every other emitter kept).
 pub fn trace_path(
-    scene: &PackedScene,
+    scene: &World,
     px: u32,
     py: u32,
     rr_depth: u32,
+    light: Option<usize>,
     rng: &mut impl Rng,
 ) -> DVec3 {
     let cam = &scene.camera;
@@ -138,28 +258,31 @@ pub fn trace_path(
     let (mut o, mut d) = camera_ray(cam, px, py, u);
     let mut radiance = DVec3::ZERO;
     let mut throughput = DVec3::ONE;
+    let mut after_diffuse = false;
     for depth in 0..100_000u32 {
-        let Some((t, kind, index)) = nearest(scene, o, d) else {
+        let Some((t, kind, index)) = scene.nearest(o, d) else {
             break;
         };
         let p = o + t * d;
         let (n, material) = if kind == 1 {
-            let s = &scene.spheres[index];
-            ((p - v3(s.center)).normalize(), s.material)
+            let (c, _, material) = scene.spheres[index];
+            ((p - c).normalize(), material)
         } else {
             let pl = &scene.planes[index];
-            (v3(pl.normal), pl.material)
+            (pl.normal, pl.material)
         };
-        let m = &scene.materials[material as usize];
-        radiance += throughput * v3(m.emission);
-        let color = v3(m.color);
+        let m = &scene.materials[material];
+        if !(after_diffuse && kind == 1 && light == Some(index)) {
+            radiance += throughput * m.emission;
+        }
+        let color = m.color;
         let wo = -d;
         let cos_o = wo.dot(n);
         let facing = if cos_o >= 0.0 { n } else { -n };
         let reflected = 2.0 * wo.dot(facing) * facing - wo;
         let wi = match m.kind {
-            layout::MATERIAL_SPECULAR => reflected,
-            layout::MATERIAL_REFRACTIVE => {
+            MaterialKind::Specular => reflected,
+            MaterialKind::Refractive => {
                 let entering = cos_o > 0.0;
                 let eta = if entering { 1.0 / 1.5 } else { 1.5 };
                 let cos_i = cos_o.abs();
@@ -179,8 +302,15 @@ pub fn trace_path(
                     }
                 }
             }
-            _ => cosine_direction(facing, rng.random(), rng.random()),
+            _ => {
+                if let Some(light) = light {
+                    radiance +=
+                        throughput * sphere_light_sample(scene, light, p, facing, color, rng);
+                }
+                cosine_direction(facing, rng.random(), rng.random())
+            }
         };
+        after_diffuse = m.kind == MaterialKind::Diffuse;
         throughput *= color;
         let survive = throughput.max_element().min(1.0);
         if depth + 1 >= rr_depth || survive <= 0.0 {
