@@ -2,7 +2,7 @@
 //! after). Each case renders a scene and its f32-exact twin with the same seed and random
 //! numbers:
 //! - a scene of every primitive kind (an untransformed sphere and plane, a transformed plane,
-//!   a mesh and a surface of revolution under transforms, a sphere and a plane square
+//!   a mesh and a surface of revolution under transforms, a sphere, a plane square and a mesh
 //!   emitting) moved by 1e3 to 1e7 along each axis, and scaled by 1e-6 to 1e6, camera and all:
 //!   the paired difference of the images' means within 3 standard errors, and no 8x8 block's
 //!   mean more than 1% from the twin's;
@@ -81,6 +81,7 @@ fn every_kind(at: &Placement, dir: &std::path::Path) -> Scene {
         "Plane { normal 0 -1 0 offset 0 range 0.5 }",
     );
     let mesh = at.transformed([1.25, 0.5, 0.25], 0.5, "Mesh { obj_file octa.obj }");
+    let glowing = at.transformed([-1.0, 2.5, -1.0], 0.25, "Mesh { obj_file octa.obj }");
     let goblet = at.transformed(
         [0.0, 0.625, -0.5],
         0.25,
@@ -91,20 +92,22 @@ fn every_kind(at: &Placement, dir: &std::path::Path) -> Scene {
     );
     let text = format!(
         "PerspectiveCamera {{ center {camera} direction 0 -0.125 -1 angle 40 width 64 height 48 }}
-         Materials {{ numMaterials 5
+         Materials {{ numMaterials 6
            Material {{ color 0.75 0.75 0.75 }}
            Material {{ color 0.75 0.25 0.25 }}
            Material {{ color 0.25 0.5 0.75 }}
            Material {{ emission 6 6 6 color 0 0 0 }}
-           Material {{ emission 3 2 1 color 0 0 0 }} }}
-         Group {{ numObjects 7
+           Material {{ emission 3 2 1 color 0 0 0 }}
+           Material {{ emission 2 2 3 color 0 0 0 }} }}
+         Group {{ numObjects 8
            MaterialIndex 0 {floor}
            Plane {{ normal 0 0 1 offset {back} range 100000000 }}
            MaterialIndex 1 Sphere {{ center {sphere} radius {} }}
            MaterialIndex 2 {mesh}
            MaterialIndex 0 {goblet}
            MaterialIndex 3 Sphere {{ center {light} radius {} }}
-           MaterialIndex 4 {panel} }}",
+           MaterialIndex 4 {panel}
+           MaterialIndex 5 {glowing} }}",
         0.75 * s,
         0.5 * s
     );
