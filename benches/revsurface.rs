@@ -67,6 +67,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     )?;
 
     let (c, size) = (bounds.center(), bounds.extent().length());
+    // Rays are made in the goblet's coordinates and given to the device in its own, relative to
+    // the camera (the probe takes them on into the profile's stored space).
+    let origin = packed.origin;
     let mut rng = SmallRng::seed_from_u64(1);
     let side = (RAYS as f64).sqrt() as usize;
     let eye = c + DVec3::new(0.0, 0.0, 2.0 * size);
@@ -78,7 +81,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 (0.5 - y / side as f64) * size * 1.0,
                 0.0,
             );
-            [eye.as_vec3(), (target - eye).normalize().as_vec3()]
+            [
+                (eye - origin).as_vec3(),
+                (target - eye).normalize().as_vec3(),
+            ]
         })
         .collect();
     let random: Vec<[Vec3; 2]> = (0..RAYS)
@@ -89,7 +95,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 rng.random_range(bounds.lo.y..bounds.hi.y),
                 rng.random_range(bounds.lo.z..bounds.hi.z),
             );
-            [o.as_vec3(), (target - o).normalize().as_vec3()]
+            [(o - origin).as_vec3(), (target - o).normalize().as_vec3()]
         })
         .collect();
 
@@ -160,6 +166,7 @@ fn measure(
         .queue(device.queue.clone())
         .global_work_size(rays.len())
         .arg(&buffers.revsurfaces)
+        .arg(&buffers.transforms)
         .arg(&buffers.rev_points)
         .arg(&input)
         .arg(&output)

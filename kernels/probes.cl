@@ -236,15 +236,22 @@ __kernel void probe_bump(__global const float* frames, __global const float2* g,
     vstore3(n, i, out);
 }
 
-/* Surfaces of revolution alone, for benchmarks: rays (o, d; 6 floats) in the object space of
- * revolved surface 0; output t (t_max = INFINITY when none), solver iterations and
- * sub-segments visited. */
+/* Surfaces of revolution alone, for benchmarks: rays (o, d; 6 floats) in device coordinates,
+ * taken into the space revolved surface 0 is stored in by its transform (the host centres its
+ * profile and moves it to the camera's origin, src/device/upload.rs); output t in that space
+ * (t_max = INFINITY when none), solver iterations and sub-segments visited. */
 __kernel void probe_rev_work(__global const RevSurface* revsurfaces,
+                             __global const Transform* transforms,
                              __global const float2* rev_points, __global const float* rays,
                              __global float* out) {
     const uint i = get_global_id(0);
-    const float3 o = vload3(2 * i, rays);
-    const float3 d = vload3(2 * i + 1, rays);
+    float3 o = vload3(2 * i, rays);
+    float3 d = vload3(2 * i + 1, rays);
+    const uint transform = revsurfaces[0].transform;
+    if (transform != TRANSFORM_NONE) {
+        o = xform_point(transforms[transform].inv, o);
+        d = normalize(xform_vector(transforms[transform].inv, d));
+    }
     uint seg = 0u;
     float u = 0.0f;
     RevWork work = {0u, 0u};
