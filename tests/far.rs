@@ -376,3 +376,29 @@ fn literal_smallpt_matches_its_decimals() {
         );
     }
 }
+
+/// Positions within f32's range whose distance from the camera is not (the device's
+/// coordinates are camera-relative): an error naming the object, not a sphere at infinity.
+#[test]
+fn an_object_beyond_f32_from_the_camera_is_an_error_at_its_place() {
+    for object in [
+        "Sphere { center 0 0 -3e38 radius 1 }",
+        "Plane { normal 0 0 1 offset -3e38 range 1 }",
+        "Transform { Translate 0 0 -3e38 Sphere { center 0 0 0 radius 1 } }",
+    ] {
+        let text = format!(
+            "PerspectiveCamera {{ center 0 0 3e38 direction 0 0 -1 angle 30 width 8 height 8 }}
+Materials {{ numMaterials 1 Material {{ color 0.5 0.5 0.5 }} }}
+Group {{ numObjects 1 MaterialIndex 0 {object} }}"
+        );
+        let scene = parse_scene(&text, "far.txt").unwrap_or_else(|e| panic!("{object}: {e}"));
+        let err = clpt::device::upload::PackedScene::new(&scene, u64::MAX)
+            .err()
+            .unwrap_or_else(|| panic!("{object}: packed"))
+            .to_string();
+        assert!(
+            err.contains("far.txt:3:") && err.contains("overflow f32"),
+            "{object}: {err}"
+        );
+    }
+}

@@ -187,6 +187,7 @@ impl PackedScene {
                 )));
             }
             let material = object.material as u32;
+            let before = packed.counts();
             let placed = object.transform.map(|m| to_device * m);
             let transform = placed.as_ref();
             // Where an untransformed object's coordinates go on the device.
@@ -315,10 +316,54 @@ impl PackedScene {
                     packed.mesh_instances.push(instance);
                 }
             }
+            if !packed.finite_since(before) {
+                return Err(Error::Invalid(format!(
+                    "{}: the object lies too far from the camera at ({:?}, {:?}, {:?}): the \
+                     device's coordinates, relative to the camera, overflow f32 (3.4e38) there",
+                    object.location, origin.x, origin.y, origin.z
+                )));
+            }
         }
         packed.build_bvh();
         packed.collect_lights();
         Ok(packed)
+    }
+
+    /// How many spheres, planes, transforms, vertices and profile points are packed.
+    fn counts(&self) -> [usize; 5] {
+        [
+            self.spheres.len(),
+            self.planes.len(),
+            self.transforms.len(),
+            self.vertices.len(),
+            self.rev_points.len(),
+        ]
+    }
+
+    /// Whether every number packed since `counts` was `before` is finite: the host's f64 values
+    /// are within f32's range (the parser checks), but their differences from the camera's
+    /// position need not be.
+    fn finite_since(&self, before: [usize; 5]) -> bool {
+        let [s, p, t, v, r] = before;
+        let finite = |x: &f32| x.is_finite();
+        self.spheres[s..].iter().all(|x| {
+            x.center
+                .iter()
+                .chain(&x.center_lo)
+                .chain([&x.radius, &x.radius_lo])
+                .all(finite)
+        }) && self.planes[p..].iter().all(|x| {
+            x.normal
+                .iter()
+                .chain(&x.center)
+                .chain(&x.centerp)
+                .chain([&x.offset, &x.range])
+                .all(finite)
+        }) && self.transforms[t..]
+            .iter()
+            .all(|x| x.m.iter().chain(&x.inv).all(finite))
+            && self.vertices[v..].iter().flatten().all(finite)
+            && self.rev_points[r..].iter().flatten().all(finite)
     }
 
     /// A scene of untransformed spheres and planes made in code (tests, probes), in device
