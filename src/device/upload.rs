@@ -253,12 +253,10 @@ impl PackedScene {
                     let stored: Vec<[f32; 2]> = points()
                         .map(|p| [p.x as f32, (p.y - y_mid) as f32])
                         .collect();
-                    let radius = stored.iter().fold(0.0f32, |r, p| r.max(p[0].abs()));
-                    let (y_lo, y_hi) = stored
-                        .iter()
-                        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
-                            (lo.min(p[1]), hi.max(p[1]))
-                        });
+                    let (radius, y_lo, y_hi) = stored.iter().fold(
+                        (0.0f32, f32::INFINITY, f32::NEG_INFINITY),
+                        |(r, lo, hi), p| (r.max(p[0].abs()), lo.min(p[1]), hi.max(p[1])),
+                    );
                     let revsurface = RevSurface {
                         first_point: packed.rev_points.len() as u32,
                         num_segments: segments.len() as u32,

@@ -17,11 +17,14 @@ pub fn v3(a: [f32; 3]) -> DVec3 {
     DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64)
 }
 
-/// Both roots of |o + t d - c| = r (d unit), computed in f64 with the stable formulas; None if
-/// the ray's line misses.
+/// Both roots of |o + t d - c| = r for the device's sphere (d unit), in f64 (the double-float
+/// centre and radius summed); None if the ray's line misses.
 pub fn sphere_roots(s: &Sphere, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
-    let c = s.center_f64();
-    let r = s.radius_f64();
+    roots(s.center_f64(), s.radius_f64(), o, d)
+}
+
+/// Both roots of |o + t d - c| = r (d unit), computed with the stable formulas, in order.
+fn roots(c: DVec3, r: f64, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
     let f = o - c;
     let b = f.dot(d);
     let perp = f - b * d;
@@ -36,23 +39,25 @@ pub fn sphere_roots(s: &Sphere, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
 }
 
 pub fn sphere_hit(s: &Sphere, o: DVec3, d: DVec3, t_max: f64) -> Option<f64> {
-    let (t0, t1) = sphere_roots(s, o, d)?;
+    first_root(s.center_f64(), s.radius_f64(), o, d, t_max)
+}
+
+/// The nearest t in (0, t_max) where o + t d meets the sphere (c, r).
+fn first_root(c: DVec3, r: f64, o: DVec3, d: DVec3, t_max: f64) -> Option<f64> {
+    let (t0, t1) = roots(c, r, o, d)?;
     [t0, t1].into_iter().find(|&t| t > 0.0 && t < t_max)
 }
 
+/// The device's plane, widened exactly to f64.
 pub fn plane_hit(p: &Plane, o: DVec3, d: DVec3, t_max: f64) -> Option<f64> {
-    let n = v3(p.normal);
-    let denom = n.dot(d);
-    if denom >= 0.0 {
-        return None;
-    }
-    let t = (p.offset as f64 - n.dot(o)) / denom;
-    if !(t > 0.0 && t < t_max) {
-        return None;
-    }
-    let rel = o + t * d - v3(p.center);
-    let range = p.range as f64;
-    (rel.abs().max_element() <= range).then_some(t)
+    let plane = WorldPlane {
+        normal: v3(p.normal),
+        offset: p.offset as f64,
+        range: p.range as f64,
+        center: v3(p.center),
+        material: p.material as usize,
+    };
+    plane.hit(o, d, t_max)
 }
 
 /// A scene of untransformed spheres and planes as its file says, in f64 and in the scene's
@@ -72,6 +77,21 @@ pub struct WorldPlane {
     pub range: f64,
     pub center: DVec3,
     pub material: usize,
+}
+
+impl WorldPlane {
+    /// The t in (0, t_max) where o + t d meets the plane from its front, inside its box.
+    fn hit(&self, o: DVec3, d: DVec3, t_max: f64) -> Option<f64> {
+        let denom = self.normal.dot(d);
+        if denom >= 0.0 {
+            return None;
+        }
+        let t = (self.offset - self.normal.dot(o)) / denom;
+        if !(t > 0.0 && t < t_max) {
+            return None;
+        }
+        ((o + t * d - self.center).abs().max_element() <= self.range).then_some(t)
+    }
 }
 
 impl World {
@@ -116,30 +136,12 @@ impl World {
     pub fn nearest(&self, o: DVec3, d: DVec3) -> Option<(f64, u32, usize)> {
         let mut best: Option<(f64, u32, usize)> = None;
         for (i, &(c, r, _)) in self.spheres.iter().enumerate() {
-            let f = o - c;
-            let b = f.dot(d);
-            let disc = r * r - (f - b * d).length_squared();
-            if disc < 0.0 {
-                continue;
-            }
-            let cc = (f.length() - r) * (f.length() + r);
-            let q = -(b + disc.sqrt().copysign(b));
-            let t_max = best.map_or(f64::INFINITY, |b| b.0);
-            if let Some(t) = [(cc / q).min(q), (cc / q).max(q)]
-                .into_iter()
-                .find(|&t| t > 0.0 && t < t_max)
-            {
+            if let Some(t) = first_root(c, r, o, d, best.map_or(f64::INFINITY, |b| b.0)) {
                 best = Some((t, 1, i));
             }
         }
         for (i, p) in self.planes.iter().enumerate() {
-            let denom = p.normal.dot(d);
-            if denom >= 0.0 {
-                continue;
-            }
-            let t = (p.offset - p.normal.dot(o)) / denom;
-            let t_max = best.map_or(f64::INFINITY, |b| b.0);
-            if t > 0.0 && t < t_max && (o + t * d - p.center).abs().max_element() <= p.range {
+            if let Some(t) = p.hit(o, d, best.map_or(f64::INFINITY, |b| b.0)) {
                 best = Some((t, 2, i));
             }
         }
