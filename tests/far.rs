@@ -269,19 +269,14 @@ fn a_goblet_raised_in_its_own_coordinates_keeps_its_silhouette() {
     );
 }
 
-/// Whole-image mean of a film and its standard error, per sample of every channel.
+/// Whole-image mean of a film over its channels, and its standard error
+/// ([`common::image_mean`]'s, per channel, combined).
 fn image_mean(film: &Film) -> (f64, f64) {
-    let n = film.sum.len() as f64 * 3.0;
-    let spp = film.spp as f64;
-    let (mut mean, mut var) = (0.0, 0.0);
-    for (s, s2) in film.sum.iter().zip(&film.sum_sq) {
-        for c in 0..3 {
-            let m = s[c] as f64 / spp;
-            mean += m;
-            var += (s2[c] as f64 / spp - m * m) / (spp - 1.0);
-        }
-    }
-    (mean / n, var.sqrt() / n)
+    let (mean, var) = common::image_mean(film);
+    (
+        mean.iter().sum::<f64>() / 3.0,
+        var.iter().sum::<f64>().sqrt() / 3.0,
+    )
 }
 
 #[test]
