@@ -8,7 +8,7 @@ use clpt::output;
 use clpt::render::bench::{BenchResult, bench_scene};
 use clpt::render::film_file::FilmState;
 use clpt::render::metrics::{self, LinearImage};
-use clpt::render::resume::{self, FilmRecord};
+use clpt::render::resume::{self, BackgroundWriter, FilmRecord};
 use clpt::render::{
     Flow, ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter, efficiency, film, report,
     strategy::{LightSampling, Roulette},
@@ -599,6 +599,7 @@ fn render(args: &RenderArgs) -> Result<u8> {
     };
     let every = Duration::from_secs_f64(args.checkpoint_every);
     let mut last_checkpoint = Instant::now();
+    let mut writer = BackgroundWriter::default();
     let (film, stats) = renderer.render_with(&mut |p: &Progress, r: &Renderer| {
         bar.set_position(p.spp_done as u64);
         let spp_per_second = p.spp_done as f64 / p.elapsed.as_secs_f64().max(1e-9);
@@ -613,9 +614,20 @@ fn render(args: &RenderArgs) -> Result<u8> {
             s.rr_threshold
         ));
         let signalled = stop.interrupted();
-        if signalled || (args.checkpoint.is_some() && last_checkpoint.elapsed() >= every) {
-            let seconds = p.elapsed.as_secs_f64();
+        let seconds = p.elapsed.as_secs_f64();
+        if signalled {
+            // The last checkpoint before exiting: written here and now, after any in flight.
+            writer.wait()?;
             record.write(&checkpoint, r, p.strategy, p.spp_done, seconds)?;
+        } else if args.checkpoint.is_some() && last_checkpoint.elapsed() >= every {
+            record.write_in_background(
+                &mut writer,
+                &checkpoint,
+                r,
+                p.strategy,
+                p.spp_done,
+                seconds,
+            )?;
             last_checkpoint = Instant::now();
         }
         Ok(if signalled {
@@ -624,6 +636,7 @@ fn render(args: &RenderArgs) -> Result<u8> {
             Flow::Continue
         })
     })?;
+    writer.wait()?;
     bar.finish_and_clear();
     film.write(&output)?;
     let (strategy, seconds) = (stats.choice.strategy(), stats.elapsed.as_secs_f64());
@@ -749,7 +762,11 @@ fn render_on_devices(
     }
     let devices = list
         .iter()
-        .map(|d| device::select(Some(d)).with_context(|| format!("--device entry `{d}`")))
+        .map(|d| {
+            // One host thread for each other device's driver (device::select_reserving).
+            device::select_reserving(Some(d), list.len() as u32 - 1)
+                .with_context(|| format!("--device entry `{d}`"))
+        })
         .collect::<Result<Vec<_>>>()?;
     let total = options.spp.unwrap_or(64);
     let bar = if args.quiet {
@@ -768,6 +785,7 @@ fn render_on_devices(
         scene,
         &args.device.sources(),
         options,
+        multi::Balance::default(),
         &|p: &multi::MultiProgress| {
             bar.set_position(p.spp_done as u64);
             let rate = pixels * f64::from(p.spp_done) / p.elapsed.as_secs_f64().max(1e-9);
@@ -812,9 +830,10 @@ fn render_on_devices(
     eprintln!("estimator: {}", result.choice);
     for (i, s) in result.shares.iter().enumerate() {
         eprintln!(
-            "device {}: {}, {} spp ({:.0}%) in {:.2} s",
+            "device {}: {} ({} compute units), {} spp ({:.0}%) in {:.2} s",
             list[i],
             s.device,
+            devices[i].description.compute_units,
             s.samples,
             100.0 * f64::from(s.samples) / f64::from(total.max(1)),
             s.seconds

@@ -6,9 +6,16 @@
 mod common;
 
 use clpt::device::program::KernelSources;
-use clpt::render::multi::{self, MultiProgress};
+use clpt::render::multi::{self, Balance, MultiProgress};
 use clpt::render::strategy::{LightSampling, Roulette};
 use clpt::render::{RenderOptions, Renderer};
+
+/// Chunks of one group, and every device joining at once: both devices share even these
+/// small renders.
+const EVERY_GROUP: Balance = Balance {
+    share_fraction: 0.0,
+    join_seconds: 0.0,
+};
 
 fn scene() -> clpt::scene::Scene {
     let mut scene = clpt::scene::builtin::scene().unwrap();
@@ -19,7 +26,7 @@ fn scene() -> clpt::scene::Scene {
 #[test]
 fn two_devices_render_the_image_of_one() {
     let options = RenderOptions {
-        spp: Some(200),
+        spp: Some(1024),
         seed: 3,
         light_sampling: LightSampling::Off,
         roulette: Roulette::Threshold(0.3),
@@ -38,20 +45,26 @@ fn two_devices_render_the_image_of_one() {
         &scene(),
         &KernelSources::Embedded,
         &options,
+        EVERY_GROUP,
         &|p: &MultiProgress| progress.lock().unwrap().push(p.spp_done),
     )
     .unwrap();
     let seen = progress.into_inner().unwrap();
-    assert_eq!(seen.last(), Some(&200), "{seen:?}");
-    assert_eq!(two.shares.iter().map(|s| s.samples).sum::<u32>(), 200);
-    let (a, b) = (two.film.film(200), single.film(200));
+    assert_eq!(seen.last(), Some(&1024), "{seen:?}");
+    assert_eq!(two.shares.iter().map(|s| s.samples).sum::<u32>(), 1024);
+    assert!(
+        two.shares.iter().all(|s| s.samples > 0),
+        "both devices rendered: {:?}",
+        two.shares
+    );
+    let (a, b) = (two.film.film(1024), single.film(1024));
     common::assert_close(
         a.sum.iter().flat_map(|p| &p[..3]),
         b.sum.iter().flat_map(|p| &p[..3]),
         1e-6,
         "the image of several devices against one",
     );
-    let relmse = two.film.estimated_error(200).relmse;
+    let relmse = two.film.estimated_error(1024).relmse;
     assert!(
         (relmse / single_relmse - 1.0).abs() < 1e-4,
         "{relmse} against {single_relmse}"
@@ -72,10 +85,12 @@ fn the_trial_runs_once_and_every_chunk_runs_its_choice() {
         &scene(),
         &KernelSources::Embedded,
         &options,
+        EVERY_GROUP,
         &|_: &MultiProgress| {},
     )
     .unwrap();
     assert!(two.choice.was_measured(), "auto: a trial");
+    assert_eq!(two.shares.iter().map(|s| s.samples).sum::<u32>(), 256);
     // The same samples with that strategy fixed, on one device.
     let mut fixed = options.clone();
     fixed.pin(two.choice.strategy());
@@ -89,4 +104,97 @@ fn the_trial_runs_once_and_every_chunk_runs_its_choice() {
         1e-6,
         "the image of several devices against one",
     );
+}
+
+/// The queue sizes chunks to the claiming device: one group while its rate is unknown, then
+/// half of its share of what is left at its rate; it hands out every sample once, in order.
+#[test]
+fn the_queue_sizes_chunks_to_each_device() {
+    let mut queue = multi::Queue::new(100_000, 2, 1024, Balance::default());
+    assert_eq!(queue.claim(1), Some((1024, 8)), "unmeasured: one group");
+    queue.measured(0, 1024, 0.5); // 2048 samples a second
+    // With less than JOIN_SECONDS of the fast device's work left, an unmeasured one stays out.
+    let mut short = multi::Queue::new(20_000, 2, 1024, Balance::default());
+    short.measured(0, 1024, 0.5);
+    assert_eq!(
+        short.claim(1),
+        None,
+        "18976 samples: 9.3 s of the fast device"
+    );
+    queue.measured(1, 8, 0.8); // 10 a second
+    // 98968 left: the fast device's share is 98487, half of it 49243.5, in whole groups.
+    assert_eq!(queue.claim(0), Some((1032, 49248)));
+    // 49720 left: the slow one's share 241.6, half of it 120.8.
+    assert_eq!(queue.claim(1), Some((50280, 128)));
+    // Every sample once, in order, until the slow device would outlast the fast one.
+    let mut next = 50408;
+    let mut slow_stopped_with = None;
+    loop {
+        let fast = queue.claim(0);
+        let slow = queue.claim(1);
+        for claim in [fast, slow].into_iter().flatten() {
+            assert_eq!(claim.0, next);
+            next += claim.1;
+        }
+        if slow.is_none() && slow_stopped_with.is_none() {
+            slow_stopped_with = Some(100_000 - next);
+        }
+        if fast.is_none() {
+            break;
+        }
+    }
+    assert_eq!(next, 100_000);
+    // The slow device stops while what is left takes the fast one less than one of its
+    // groups (0.8 s): under 0.8 * 2048 samples.
+    let left = slow_stopped_with.expect("the slow device stopped before the end");
+    assert!(left < 1639, "{left}");
+}
+
+/// Chunks shrink as the render goes on (guided self-scheduling), each device's in proportion
+/// to its rate, so the devices end together; a few chunks cover the whole.
+#[test]
+fn chunks_shrink_towards_the_end_in_proportion_to_rates() {
+    let mut queue = multi::Queue::new(1000, 2, 0, Balance::default());
+    queue.measured(0, 300, 1.0);
+    queue.measured(1, 100, 1.0);
+    // 1000 left: shares 750 and then (of 624) 156, halved, in whole groups.
+    assert_eq!(queue.claim(0), Some((0, 376)));
+    assert_eq!(queue.claim(1), Some((376, 80)));
+    let (mut next, mut chunks) = (456, 2);
+    let mut last = [376, 80];
+    for device in [0, 1].into_iter().cycle() {
+        let Some((first, n)) = queue.claim(device) else {
+            if device == 0 {
+                break;
+            }
+            continue;
+        };
+        assert_eq!(first, next);
+        assert!(
+            n % 8 == 0 && n <= last[device],
+            "{n} after {}",
+            last[device]
+        );
+        (next, last[device], chunks) = (next + n, n, chunks + 1);
+    }
+    assert_eq!(next, 1000);
+    assert!(chunks <= 16, "{chunks} chunks");
+}
+
+/// A device that stops is not counted on: the last one still claiming takes all that is
+/// left, however its rate compares with the stopped one's (rates of tiny chunks are noisy).
+#[test]
+fn the_last_device_claiming_never_stops() {
+    let mut queue = multi::Queue::new(1000, 2, 0, Balance::default());
+    queue.measured(0, 8, 1.0);
+    queue.measured(1, 8000, 1.0);
+    assert_eq!(queue.claim(0), None, "the slow device stops");
+    queue.measured(1, 8, 1.0); // now slower than device 0 was
+    let mut next = 0;
+    while let Some((first, n)) = queue.claim(1) {
+        assert_eq!(first, next);
+        next += n;
+    }
+    assert_eq!(next, 1000);
+    assert_eq!(queue.claim(0), None);
 }

@@ -4,6 +4,8 @@
 //! uninterrupted one; checkpoints are rewritten while a render runs; a checkpoint of another
 //! seed, scene or option set is refused with the reason.
 
+mod common;
+
 use clpt::render::film_file::FilmState;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -178,5 +180,55 @@ fn a_checkpoint_of_another_seed_scene_or_options_is_refused() {
             );
         }
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Background checkpoints (resume::BackgroundWriter): the next write waits for the one in
+/// flight, which lands whole, and a write that fails is an error at the wait, not lost.
+#[test]
+fn a_background_write_lands_whole_and_its_failure_is_an_error() {
+    use clpt::device::program::KernelSources;
+    use clpt::render::resume::{BackgroundWriter, FilmRecord};
+    use clpt::render::strategy::{LightSampling, Roulette, Strategy};
+    use clpt::render::{RenderOptions, Renderer};
+    let mut scene = clpt::scene::builtin::scene().unwrap();
+    (scene.camera.width, scene.camera.height) = (8, 6);
+    let options = RenderOptions {
+        spp: Some(16),
+        light_sampling: LightSampling::Off,
+        roulette: Roulette::Threshold(0.3),
+        ..RenderOptions::default()
+    };
+    let device = common::device();
+    let mut renderer =
+        Renderer::new(&device, &scene, &KernelSources::Embedded, options.clone()).unwrap();
+    renderer.render(&mut |_| {}).unwrap();
+    let record = FilmRecord {
+        scene_file: None,
+        options: &options,
+        device: &device.description.name,
+        seconds_before: 0.0,
+    };
+    let strategy = Strategy {
+        light_sampling: false,
+        rr_threshold: 0.3,
+    };
+    let dir = scratch("background");
+    let (good, bad) = (dir.join("k.exr"), dir.join("missing").join("k.exr"));
+    let mut writer = BackgroundWriter::default();
+    record
+        .write_in_background(&mut writer, &good, &renderer, strategy, 16, 1.0)
+        .unwrap();
+    record
+        .write_in_background(&mut writer, &bad, &renderer, strategy, 16, 1.0)
+        .unwrap();
+    let (state, meta) = FilmState::read(&good).expect("the first write landed whole");
+    assert_eq!(meta.samples, (0, 16));
+    assert!(
+        state == renderer.film_state().unwrap(),
+        "the film, bit for bit"
+    );
+    assert!(writer.wait().is_err(), "the failed write surfaces");
+    assert!(writer.wait().is_ok(), "and only once");
     let _ = std::fs::remove_dir_all(&dir);
 }

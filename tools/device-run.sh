@@ -1,42 +1,122 @@
 #!/bin/bash
-# One device session (packed by tools/pack-device-run): devices, the kernel tests on the GPU,
-# benchmarks, renders. Results under $OUT (at most 8 files come back).
+# One device session (packed by tools/pack-device-run), in stages, so that a session can spread
+# them over calls of the device tool's 10-minute limit:
+#   bash device-run/run.sh [STAGE ...]      (no stage: all of them, in this order)
+# info        the GPU, the OpenCL devices, every scene built and rendered once by NVIDIA's compiler
+# tests       the kernel tests on the GPU (CLPT_DEVICE=NVIDIA)
+# estimators  tools/estimators.sh over the showcases and scenes/ at defaults and fixed settings
+# films       checkpoint cost; several devices (the GPU and the CPU device, if there is one)
+# mitsuba     tools/mitsuba-compare.py --cuda (needs .whl/ from tools/pack-mitsuba-wheels carried)
+# bench       cold builds and rates of each scene's program and of all features; the goblet alone
+# Results under $OUT, one file a stage (at most 8 files come back).
 echo libnvidia-opencl.so.1 > /etc/OpenCL/vendors/nvidia.icd
+repo=$PWD
 cd "$(dirname "$0")"
 ldconfig -p | grep -q libOpenCL.so.1 || export LD_LIBRARY_PATH=$PWD/lib
 export CLPT_SEED_DIR=$PWD/seed
 seed=seed/testcases
-{
+showcases="$seed/case0_texture.txt $seed/case1_dof_mesh.txt $seed/case2_softshadows_colorbleeding.txt
+  $seed/case3_wineglass.txt $seed/case4_planets.txt $seed/case5_light_balls.txt"
+stages=("$@")
+[ ${#stages[@]} -eq 0 ] && stages=(info tests estimators films mitsuba bench)
+
+info() {
   nvidia-smi --query-gpu=name,driver_version,clocks.max.sm --format=csv; head -2 /etc/os-release; nproc
   ./clpt devices
+  for s in $showcases scenes/*.txt; do
+    echo "$s: $(CLPT_DEVICE=NVIDIA ./clpt render "$s" --width 64 --height 36 --spp 8 -o /tmp/x.pfm -q 2>&1 | tail -1)"
+  done
+}
+
+tests() {
   export CLPT_DEVICE=NVIDIA
-  for t in test_*; do
-    ./$t --test-threads=4 > /tmp/$t.txt 2>&1; echo "$t on the H200: $(grep 'test result' /tmp/$t.txt)"
-    grep -q "FAILED" /tmp/$t.txt && grep -v "^ *[0-9]*: \|^ *at " /tmp/$t.txt | head -40
+  # The tests of the newest kernel changes first; none started after TESTS_BUDGET seconds.
+  local start=$SECONDS
+  for t in test_far test_render test_shadow_rays test_layout test_geometry test_revsurface \
+      $(ls test_* | grep -v -x -e test_far -e test_render -e test_shadow_rays -e test_layout \
+        -e test_geometry -e test_revsurface); do
+    if [ $((SECONDS - start)) -gt "${TESTS_BUDGET:-400}" ]; then echo "$t: not run (budget)"; continue; fi
+    timeout 300 ./$t --test-threads=4 > /tmp/$t.txt 2>&1; rc=$?
+    echo "$t on the H200 (exit $rc): $(grep 'test result' /tmp/$t.txt)"
+    [ $rc -ne 0 ] && grep -v "^ *[0-9]*: \|^ *at " /tmp/$t.txt | grep -v "^test .* ok$" | tail -30
   done
-} > $OUT/info.txt 2>&1; cat $OUT/info.txt
-export CLPT_DEVICE=NVIDIA
-{
-  echo "## cargo bench --bench revsurface (goblet alone), degree 3 compiled in"
-  ./bench_revsurface
-  echo "## the same, degree read at run time"
-  CLPT_BENCH_REV_DEGREE=0 ./bench_revsurface
-} > $OUT/bench_revsurface.txt 2>&1; cat $OUT/bench_revsurface.txt
-{
-  echo "## H200, cold build (CUDA_CACHE_DISABLE=1), 256 spp: each scene's own program, then all features"
-  for features in "" --all-features; do
-    CUDA_CACHE_DISABLE=1 ./clpt bench scenes/smallpt.txt $seed/case0_texture.txt $seed/case1_dof_mesh.txt $seed/case2_softshadows_colorbleeding.txt $seed/case3_wineglass.txt $seed/case4_planets.txt $seed/case5_light_balls.txt scenes/goblet.txt tools/dragon_rays.txt --spp 256 $features
+}
+
+estimators() {
+  export CLPT_DEVICE=NVIDIA
+  # The showcases at the original's sizes and samples: the defaults and light sampling off
+  # with roulette below 1 (the `--no-nee` of the issue) and below 0.3 (the best fixed setting
+  # in every earlier run); the settings with light sampling cost about twice the time there.
+  SETTINGS="auto off:1 off:0.3" tools/estimators.sh ./clpt $OUT/estimators.csv \
+    $seed/case0_texture.txt:800 $seed/case3_wineglass.txt:1000 $seed/case1_dof_mesh.txt:800
+  tools/estimators.sh ./clpt /tmp/rest.csv $seed/case2_softshadows_colorbleeding.txt:512 \
+    scenes/textures.txt:2048 scenes/goblet.txt:256 scenes/meshes.txt:2048 \
+    scenes/ceiling_room.txt:4096 scenes/smallpt.txt:4096 scenes/room.txt:4096 \
+    scenes/small_light.txt:4096 scenes/lights.txt:1024
+  tail -n +2 /tmp/rest.csv >> $OUT/estimators.csv
+}
+
+films() {
+  export CLPT_DEVICE=NVIDIA
+  wall() { local t=$EPOCHREALTIME; "$@" > /tmp/wall.log 2>&1; local rc=$?
+    echo "$(python3 -c "print(f'{$EPOCHREALTIME - $t:.3f}')") s wall (exit $rc): $(tail -1 /tmp/wall.log)"; }
+  echo "## checkpoint cost: the built-in room at 1 spp without and with --film (3 runs each)"
+  for size in "1280 720" "1920 1080" "3840 2160"; do
+    set -- $size
+    for run in 1 2 3; do
+      wall ./clpt render --width $1 --height $2 --spp 1 -q --light-sampling off --rr-threshold 0.3 -o /tmp/c.png
+      wall ./clpt render --width $1 --height $2 --spp 1 -q --light-sampling off --rr-threshold 0.3 -o /tmp/c.png --film /tmp/f.exr
+    done
+    ls -l /tmp/f.exr
   done
-} 2>&1 | grep -v warning > $OUT/bench.txt; cat $OUT/bench.txt
-{
-  echo "## case3_wineglass.txt at the original's 1920x1080, 1000 spp (original: 9653 s on an RTX 2060 Super)"
-  ./clpt render $seed/case3_wineglass.txt --spp 1000 -o $OUT/case3_1000spp.png -v -q 2>&1
-  echo "## scenes/goblet.txt, 1920x1080, 1000 spp"
-  ./clpt render scenes/goblet.txt --spp 1000 -o $OUT/goblet_1000spp.png -q 2>&1
-  echo "## case1 and case0 at their original sizes and samples"
-  ./clpt render $seed/case1_dof_mesh.txt --spp 800 -o /tmp/case1.png -q 2>&1
-  ./clpt render $seed/case0_texture.txt --spp 800 -o /tmp/case0.png -q 2>&1
+  echo "## a render with checkpoints every 2 s and without (1920x1080, 4096 spp)"
+  for run in 1 2; do
+    wall ./clpt render scenes/smallpt.txt --width 1920 --height 1080 --spp 4096 -q --checkpoint /tmp/ck.exr \
+      --checkpoint-every 2 --light-sampling on --rr-threshold 0.3 -o /tmp/ck.png
+    wall ./clpt render scenes/smallpt.txt --width 1920 --height 1080 --spp 4096 -q \
+      --light-sampling on --rr-threshold 0.3 -o /tmp/nock.png
+  done
+  echo "## several devices: the GPU alone, the CPU alone (fewer samples: its rate), both"
+  ./clpt devices
+  gpu=$(./clpt devices | grep -m1 '(GPU' | grep -o '^\[[0-9]*' | tr -d '[')
+  cpu=$(./clpt devices | grep -m1 '(CPU' | grep -o '^\[[0-9]*' | tr -d '[')
+  for s in "scenes/smallpt.txt 16384 64" "$seed/case0_texture.txt 2048 8"; do
+    set -- $s
+    echo "# $1, --device $gpu (GPU), $2 spp"
+    wall ./clpt render $1 --spp $2 --device $gpu -q --light-sampling off --rr-threshold 0.3 -o /tmp/m0.pfm
+    echo "# $1, --device $cpu (CPU), $3 spp"
+    wall timeout 120 ./clpt render $1 --spp $3 --device $cpu -q --light-sampling off --rr-threshold 0.3 -o /tmp/m1.pfm
+    echo "# $1, --device $gpu,$cpu, $2 spp"
+    timeout 200 ./clpt render $1 --spp $2 --device $gpu,$cpu -q --light-sampling off --rr-threshold 0.3 -o /tmp/m01.pfm 2>&1 | tail -4
+    ./clpt compare /tmp/m0.pfm /tmp/m01.pfm 2>&1 | tail -1
+  done
   ./clpt render scenes/smallpt.txt --spp 1024 --seed 1 -o /tmp/det_a.pfm -q 2>/dev/null
   ./clpt render scenes/smallpt.txt --spp 1024 --seed 1 -o /tmp/det_b.pfm -q 2>/dev/null
   cmp /tmp/det_a.pfm /tmp/det_b.pfm && echo "determinism: two renders with seed 1 identical"
-} > $OUT/render.txt 2>&1; cat $OUT/render.txt
+}
+
+mitsuba() {
+  python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
+    --target /tmp/site "$repo"/.whl/*.whl || return
+  export PYTHONPATH=/tmp/site PYTHONUNBUFFERED=1 CLPT_DEVICE=NVIDIA
+  python3 "$repo"/tools/mitsuba-compare.py --cuda --clpt ./clpt --width 1280 --height 960 --seconds 2 \
+    --reference-factor 8 --mitsuba-samplers independent,ldsampler,multijitter,orthogonal --out /tmp/cmp
+}
+
+bench() {
+  export CLPT_DEVICE=NVIDIA
+  echo "## H200, cold build (CUDA_CACHE_DISABLE=1), 256 spp: each scene's own program, then all features"
+  for features in "" --all-features; do
+    CUDA_CACHE_DISABLE=1 timeout 100 ./clpt bench scenes/smallpt.txt $showcases scenes/goblet.txt tools/dragon_rays.txt \
+      --spp 256 $features 2>&1 | grep -v warning
+  done
+  echo "## cargo bench --bench revsurface (goblet alone)"
+  ./bench_revsurface
+}
+
+for stage in "${stages[@]}"; do
+  start=$SECONDS
+  "$stage" > $OUT/$stage.txt 2>&1
+  echo "## $stage took $((SECONDS - start)) s" >> $OUT/$stage.txt
+  cat $OUT/$stage.txt
+done

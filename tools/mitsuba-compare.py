@@ -16,24 +16,24 @@ variant on the CPU or the CUDA variant with --cuda, once per sampler of --mitsub
 the samples has less than 1/k of the render's error, so the subtraction below is then a little
 too generous to both renderers alike.
 
-    pip install mitsuba numpy   # the LLVM variant needs libLLVM >= 16 (Debian: libllvm19)
+    pip install mitsuba   # the LLVM variant needs libLLVM >= 16 (Debian: libllvm19)
     python3 tools/mitsuba-compare.py --clpt target/release/clpt --seconds 10 --out /tmp/cmp
 """
 import argparse
+import math
 import os
 import re
 import subprocess
 import time
 
-import numpy as np
-
 
 def rectangle(mi, center, normal, up, half_x, half_y, bsdf, emitter=None):
     """A Mitsuba rectangle centred at `center`, facing `normal`, half_x along up x normal and
     half_y along `up`."""
-    center, normal, up = (np.array(v, dtype=float) for v in (center, normal, up))
+    center, normal, up = ([float(c) for c in v] for v in (center, normal, up))
+    target = [c + n for c, n in zip(center, normal)]
     to_world = mi.ScalarTransform4f().look_at(
-        origin=center.tolist(), target=(center + normal).tolist(), up=up.tolist()
+        origin=center, target=target, up=up
     ) @ mi.ScalarTransform4f().scale([half_x, half_y, 1.0])
     shape = {"type": "rectangle", "to_world": to_world, "bsdf": bsdf}
     if emitter is not None:
@@ -48,8 +48,8 @@ def diffuse(rgb):
 def ceiling_room(mi, width, height, sampler="independent"):
     """scenes/ceiling_room.txt for Mitsuba."""
     grey, red, blue, green = [0.75] * 3, [0.75, 0.25, 0.25], [0.25, 0.25, 0.75], [0.25, 0.75, 0.25]
-    a = np.radians(30.0)  # the file's `angle`
-    fov = float(np.degrees(2.0 * np.arctan(a / 2.0)))
+    a = math.radians(30.0)  # the file's `angle`
+    fov = math.degrees(2.0 * math.atan(a / 2.0))
     scene = {
         "type": "scene",
         "integrator": {"type": "path"},
@@ -136,17 +136,24 @@ def main():
     extra = args.clpt_args.split()
     k = args.reference_factor
 
-    # Mitsuba, per sampler: compile its kernels, measure its rate, then the timed render and the
-    # reference.
+    # Mitsuba, per sampler: its rate at a sample count that takes a quarter of the time or
+    # more, then the timed render. Dr.Jit compiles a kernel for each sample count (and seed):
+    # each count is rendered once to compile and once timed, so that no figure holds
+    # compilation (clpt's figures hold no program build either).
     mitsuba_rows = []
     for sampler in args.mitsuba_samplers.split(","):
         scene = ceiling_room(mi, width, height, sampler)
-        mitsuba_render(mi, dr, scene, 4, 7, out("warm.exr"))
-        probe = max(1, int(args.seconds * 0.1 / mitsuba_render(mi, dr, scene, 1, 8, out("warm.exr"))))
-        rate = probe / mitsuba_render(mi, dr, scene, probe, 9, out("warm.exr"))
-        m_spp = max(1, int(rate * args.seconds))
+        spp = 1
+        while True:
+            mitsuba_render(mi, dr, scene, spp, 1, out("warm.exr"))
+            t = mitsuba_render(mi, dr, scene, spp, 1, out("warm.exr"))
+            if t >= args.seconds / 4 or spp >= 1 << 16:
+                break
+            spp = min(spp * 16, max(spp * 2, int(spp * args.seconds / 4 / max(t, 1e-4))))
+        m_spp = max(1, int(spp * args.seconds / t))
+        mitsuba_render(mi, dr, scene, m_spp, 1, out("warm.exr"))
         image, ref = f"mitsuba-{sampler}.exr", f"mitsuba-{sampler}-ref.exr"
-        m_seconds = mitsuba_render(mi, dr, scene, m_spp, 1, out(image))
+        m_seconds = mitsuba_render(mi, dr, scene, m_spp, 1, out(image))  # compiled above
         mitsuba_render(mi, dr, scene, m_spp * k, 1000, out(ref))
         name = f"Mitsuba 3 {mi.__version__} {mi.variant()}, sampler {sampler}"
         mitsuba_rows.append((name, image, ref, m_spp, m_seconds))

@@ -3,13 +3,17 @@
 //! each chunk is rendered into a cleared film and added on the host
 //! ([`Accumulator`](super::merge::Accumulator)).
 //!
-//! Why the image does not depend on the split: every random number is a function of (seed,
-//! pixel, sample, dimension), so a chunk traces the same paths on any device, and the sum of
-//! the chunks' compensated sums (in f64) is the sum of all samples to far below f32's
-//! precision: the image is one device's render's to within the 1e-6 of the compensated sums
-//! (tests/multi_device.rs), and its error estimate carries over as in a merge. The strategy is
-//! chosen once: the first chunk runs on the first device with the options' candidates (the
-//! trial, when there is one), and every later chunk on every device runs what it chose.
+//! Devices differ in speed by two orders of magnitude (an H200 against PoCL on its host's
+//! CPU), so a chunk is sized to the device that claims it, by guided self-scheduling
+//! (Polychronopoulos and Kuck 1987) weighted by measured rates: one group while its rate is
+//! unknown, then [`Balance::share_fraction`] of its share of what is left at every device's
+//! rate. Chunks start large (a chunk's fixed cost, clearing and reading back the film and
+//! adding it on the host, stays small: chunks of one second of work cost an H200 19% on
+//! smallpt and more on larger films) and shrink towards the end, so that all devices end
+//! together. A device whose smallest chunk would outlast the others' time for everything left
+//! takes no more, and a device not yet measured joins only while the others have
+//! [`Balance::join_seconds`] of work left: a slow device helps a long render, and delays one
+//! only where its first group takes longer than that.
 
 use super::film_file::FilmState;
 use super::merge::Accumulator;
@@ -51,21 +55,117 @@ pub struct MultiRender {
     pub elapsed: Duration,
 }
 
-/// Samples per pixel of a chunk: about an eighth of each device's share of `total`, in whole
-/// groups of eight, so the queue balances devices of different speeds while each chunk stays
-/// long enough to keep a device busy.
+/// Samples per pixel of the first chunk, which runs the trial on the first device: about an
+/// eighth of each device's share of `total`, in whole groups of eight.
 pub fn chunk_samples(total: u32, devices: usize) -> u32 {
     let share = total / (devices.max(1) as u32 * 8);
     share.div_ceil(8).max(1) * 8
 }
 
+/// How the queue sizes chunks.
+#[derive(Clone, Copy, Debug)]
+pub struct Balance {
+    /// The share of what is left that a measured device claims, of its part at its rate:
+    /// less than 1 leaves room to balance against rates measured again later; 0 makes every
+    /// chunk one group.
+    pub share_fraction: f64,
+    /// Seconds of work the measured devices must have left for a device not yet measured to
+    /// take its first group (whose time is unknown until it has rendered it).
+    pub join_seconds: f64,
+}
+
+/// The CLI's balance: half of a device's share, devices joining while [`JOIN_SECONDS`] are
+/// left.
+impl Default for Balance {
+    fn default() -> Balance {
+        Balance {
+            share_fraction: 0.5,
+            join_seconds: JOIN_SECONDS,
+        }
+    }
+}
+
+/// The default [`Balance::join_seconds`].
+pub const JOIN_SECONDS: f64 = 10.0;
+
+/// The queue the devices take their chunks from: samples `[next, total)` are left.
+#[derive(Debug)]
+pub struct Queue {
+    next: u32,
+    total: u32,
+    balance: Balance,
+    /// Each device's samples per second in its last chunk, once it has rendered one.
+    rates: Vec<Option<f64>>,
+    /// Whether each device may still claim: one that was told to stop is not counted on.
+    active: Vec<bool>,
+}
+
+impl Queue {
+    /// `total` samples for `devices` devices, the first `taken` of them already claimed.
+    pub fn new(total: u32, devices: usize, taken: u32, balance: Balance) -> Queue {
+        Queue {
+            next: taken.min(total),
+            total,
+            balance,
+            rates: vec![None; devices],
+            active: vec![true; devices],
+        }
+    }
+
+    /// Records that `device` rendered `samples` in `seconds`.
+    pub fn measured(&mut self, device: usize, samples: u32, seconds: f64) {
+        if samples > 0 && seconds > 0.0 {
+            self.rates[device] = Some(f64::from(samples) / seconds);
+        }
+    }
+
+    /// The next chunk for `device`, as (first sample relative to the render's start, samples),
+    /// or None when it should stop: nothing is left, the other devices still claiming (at
+    /// their measured rates) finish all that is left sooner than it would finish one group, or
+    /// it is not measured yet and they have less than [`Balance::join_seconds`] of work left.
+    /// What is left only shrinks, so a device told to stop is not needed later; the last one
+    /// still claiming never stops before the end.
+    pub fn claim(&mut self, device: usize) -> Option<(u32, u32)> {
+        let left = self.total - self.next;
+        if left == 0 || !self.active[device] {
+            return None;
+        }
+        let others: f64 = (0..self.rates.len())
+            .filter(|&d| d != device && self.active[d])
+            .filter_map(|d| self.rates[d])
+            .sum();
+        let stop = match self.rates[device] {
+            None => others > 0.0 && f64::from(left) / others < self.balance.join_seconds,
+            Some(rate) => others > 0.0 && 8.0 / rate > f64::from(left) / others,
+        };
+        if stop {
+            self.active[device] = false;
+            return None;
+        }
+        let n = match self.rates[device] {
+            None => 8,
+            Some(rate) => {
+                let share = f64::from(left) * rate / (rate + others);
+                let n = share * self.balance.share_fraction;
+                // Whole groups of eight; f64 to u32 saturates.
+                (n / 8.0).ceil().max(1.0) as u32 * 8
+            }
+        };
+        let n = n.min(left);
+        let first = self.next;
+        self.next += n;
+        Some((first, n))
+    }
+}
+
 /// Renders `options.spp` samples per pixel of `scene` (from `options.first_sample`) on every
-/// device of `devices`, calling `on_progress` after every chunk.
+/// device of `devices`, chunks sized by `balance`, calling `on_progress` after every chunk.
 pub fn render_on_devices(
     devices: &[Device],
     scene: &Scene,
     sources: &KernelSources,
     options: &RenderOptions,
+    balance: Balance,
     on_progress: &(dyn Fn(&MultiProgress) + Sync),
 ) -> Result<MultiRender> {
     let Some(total) = options.spp else {
@@ -78,12 +178,8 @@ pub fn render_on_devices(
         return Err(Error::Invalid("no device to render on".into()));
     };
     let start = Instant::now();
-    let chunk = chunk_samples(total, devices.len());
-    let chunks = total.div_ceil(chunk);
-    let range = |c: u32| {
-        let a = c * chunk;
-        (options.first_sample + a, (total - a).min(chunk))
-    };
+    let first_chunk = chunk_samples(total, devices.len()).min(total);
+    let queue = Mutex::new(Queue::new(total, devices.len(), first_chunk, balance));
     let mut first = Renderer::new(first_device, scene, sources, options.clone())?;
     let accumulator = Mutex::new(Accumulator::new(first.width(), first.height()));
     let shares = Mutex::new(
@@ -99,6 +195,7 @@ pub fn render_on_devices(
     // A finished chunk goes into the film; the progress callback sees every device's share.
     let finish = |device: usize, state: &FilmState, samples: u32, seconds: f64| {
         accumulator.lock().expect("no thread panicked").add(state);
+        (queue.lock().expect("no thread panicked")).measured(device, samples, seconds);
         let mut shares = shares.lock().expect("no thread panicked");
         shares[device].samples += samples;
         shares[device].seconds += seconds;
@@ -111,24 +208,26 @@ pub fn render_on_devices(
         });
     };
     // The first chunk chooses the strategy.
-    let (a, n) = range(0);
-    first.set_range(a, n)?;
+    first.set_range(options.first_sample, first_chunk)?;
     let t0 = Instant::now();
     let (_, stats) = first.render(&mut |_| {})?;
-    finish(0, &first.film_state()?, n, t0.elapsed().as_secs_f64());
+    finish(
+        0,
+        &first.film_state()?,
+        first_chunk,
+        t0.elapsed().as_secs_f64(),
+    );
     let strategy = stats.choice.strategy();
     first.fix_strategy(strategy)?;
-    let next = AtomicU32::new(1);
     let failed = AtomicBool::new(false);
     let error: Mutex<Option<Error>> = Mutex::new(None);
     let work = |device: usize, renderer: &mut Renderer| -> Result<()> {
         loop {
-            let c = next.fetch_add(1, Ordering::Relaxed);
-            if c >= chunks || failed.load(Ordering::Relaxed) {
+            let claim = queue.lock().expect("no thread panicked").claim(device);
+            let Some((a, n)) = claim.filter(|_| !failed.load(Ordering::Relaxed)) else {
                 return Ok(());
-            }
-            let (a, n) = range(c);
-            renderer.set_range(a, n)?;
+            };
+            renderer.set_range(options.first_sample + a, n)?;
             let t0 = Instant::now();
             renderer.render(&mut |_| {})?;
             finish(
@@ -164,6 +263,14 @@ pub fn render_on_devices(
     });
     if let Some(e) = error.into_inner().expect("no thread panicked") {
         return Err(e);
+    }
+    // The queue hands every sample out once and its last claimant never stops early: say so
+    // rather than write an image of fewer samples than asked.
+    let rendered = done.into_inner();
+    if rendered != total {
+        return Err(Error::Invalid(format!(
+            "several devices rendered {rendered} of {total} samples per pixel (a bug)"
+        )));
     }
     Ok(MultiRender {
         film: accumulator.into_inner().expect("no thread panicked").film(),
