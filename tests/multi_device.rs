@@ -14,6 +14,7 @@ use clpt::render::{RenderOptions, Renderer};
 /// small renders.
 const EVERY_GROUP: Balance = Balance {
     share_fraction: 0.0,
+    min_chunk_seconds: 0.0,
     join_seconds: 0.0,
 };
 
@@ -154,7 +155,11 @@ fn the_queue_sizes_chunks_to_each_device() {
 /// to its rate, so the devices end together; a few chunks cover the whole.
 #[test]
 fn chunks_shrink_towards_the_end_in_proportion_to_rates() {
-    let mut queue = multi::Queue::new(1000, 2, 0, Balance::default());
+    let guided = Balance {
+        min_chunk_seconds: 0.0,
+        ..Balance::default()
+    };
+    let mut queue = multi::Queue::new(1000, 2, 0, guided);
     queue.measured(0, 300, 1.0);
     queue.measured(1, 100, 1.0);
     // 1000 left: shares 750 and then (of 624) 156, halved, in whole groups.
@@ -197,4 +202,17 @@ fn the_last_device_claiming_never_stops() {
     }
     assert_eq!(next, 1000);
     assert_eq!(queue.claim(0), None);
+}
+
+/// A chunk holds at least MIN_CHUNK_SECONDS of the device's work while its share is larger: a
+/// lone fast device renders in a few chunks, not log2(samples / 8) of them.
+#[test]
+fn a_chunk_holds_at_least_two_seconds_of_work() {
+    let mut queue = multi::Queue::new(16384, 2, 0, Balance::default());
+    queue.measured(0, 1000, 1.0);
+    let mut chunks = Vec::new();
+    while let Some((_, n)) = queue.claim(0) {
+        chunks.push(n);
+    }
+    assert_eq!(chunks, [8192, 4096, 2048, 2000, 48]);
 }

@@ -7,7 +7,7 @@
 //! CPU), so a chunk is sized to the device that claims it, by guided self-scheduling
 //! (Polychronopoulos and Kuck 1987) weighted by measured rates: one group while its rate is
 //! unknown, then [`Balance::share_fraction`] of its share of what is left at every device's
-//! rate. Chunks start large (a chunk's fixed cost, clearing and reading back the film and
+//! rate, but no less than [`Balance::min_chunk_seconds`] of its work. Chunks start large (a chunk's fixed cost, clearing and reading back the film and
 //! adding it on the host, stays small: chunks of one second of work cost an H200 19% on
 //! smallpt and more on larger films) and shrink towards the end, so that all devices end
 //! together. A device whose smallest chunk would outlast the others' time for everything left
@@ -69,21 +69,30 @@ pub struct Balance {
     /// less than 1 leaves room to balance against rates measured again later; 0 makes every
     /// chunk one group.
     pub share_fraction: f64,
+    /// The least seconds of a measured device's work a chunk holds while its share is
+    /// larger: each chunk costs a probe pass, two read-backs of the whole film and its sum on
+    /// the host, and halving alone would give a lone GPU about log2(samples / 8) chunks
+    /// however short the render (one-second chunks cost an H200 19% on smallpt).
+    pub min_chunk_seconds: f64,
     /// Seconds of work the measured devices must have left for a device not yet measured to
     /// take its first group (whose time is unknown until it has rendered it).
     pub join_seconds: f64,
 }
 
-/// The CLI's balance: half of a device's share, devices joining while [`JOIN_SECONDS`] are
-/// left.
+/// The CLI's balance: half of a device's share but at least [`MIN_CHUNK_SECONDS`] of its
+/// work, devices joining while [`JOIN_SECONDS`] are left.
 impl Default for Balance {
     fn default() -> Balance {
         Balance {
             share_fraction: 0.5,
+            min_chunk_seconds: MIN_CHUNK_SECONDS,
             join_seconds: JOIN_SECONDS,
         }
     }
 }
+
+/// The default [`Balance::min_chunk_seconds`].
+pub const MIN_CHUNK_SECONDS: f64 = 2.0;
 
 /// The default [`Balance::join_seconds`].
 pub const JOIN_SECONDS: f64 = 10.0;
@@ -146,7 +155,9 @@ impl Queue {
             None => 8,
             Some(rate) => {
                 let share = f64::from(left) * rate / (rate + others);
-                let n = share * self.balance.share_fraction;
+                let n = (share * self.balance.share_fraction)
+                    .max(rate * self.balance.min_chunk_seconds)
+                    .min(share);
                 // Whole groups of eight; f64 to u32 saturates.
                 (n / 8.0).ceil().max(1.0) as u32 * 8
             }
