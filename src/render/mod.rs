@@ -344,6 +344,10 @@ pub struct Renderer<'d> {
     bad_first: ocl::Buffer<u32>,
     /// Samples per pixel the film already holds when the next render starts ([`Self::resume`]).
     start_samples: u32,
+    /// The film as the last render read it back, kept when the render is a chunk of several
+    /// devices' ([`Self::set_range`]) for [`Self::take_film_state`].
+    last_state: Option<film_file::FilmState>,
+    keep_state: bool,
     options: RenderOptions,
 }
 
@@ -596,6 +600,8 @@ impl<'d> Renderer<'d> {
             bad,
             bad_first,
             start_samples: 0,
+            last_state: None,
+            keep_state: false,
             options,
         };
         renderer.select(strategy)?;
@@ -955,9 +961,15 @@ impl<'d> Renderer<'d> {
             }
         }
         let elapsed = start.elapsed();
-        let film = self.read_film(spp_done)?;
-        let nonfinite = self.nonfinite()?;
+        // One read-back of the whole film: the image, the counters and (for several devices'
+        // chunks, `take_film_state`) the sums all come from it.
+        let state = self.film_state()?;
+        let film = state.film(spp_done);
+        let nonfinite = self.nonfinite(&state);
         let overflowed = Overflowed::of(&film);
+        if self.keep_state {
+            self.last_state = Some(state);
+        }
         Ok((
             film,
             RenderStats {
@@ -1062,7 +1074,8 @@ impl<'d> Renderer<'d> {
     }
 
     /// The next render traces samples `first .. first + spp` (`first` a multiple of 8) into a
-    /// cleared film: a share of a render that several devices split (render/multi.rs).
+    /// cleared film: a share of a render that several devices split (render/multi.rs), whose
+    /// film [`Self::take_film_state`] then gives without reading it again.
     pub fn set_range(&mut self, first: u32, spp: u32) -> Result<()> {
         if !first.is_multiple_of(8) {
             return Err(Error::Invalid(format!(
@@ -1072,6 +1085,8 @@ impl<'d> Renderer<'d> {
         self.options.first_sample = first;
         self.options.spp = Some(spp);
         self.start_samples = 0;
+        self.keep_state = true;
+        self.last_state = None;
         self.clear_film()
     }
 
@@ -1090,14 +1105,15 @@ impl<'d> Renderer<'d> {
         })
     }
 
-    /// The non-finite samples the kernel counted, and the first of them.
-    fn nonfinite(&self) -> Result<NonFinite> {
-        let (bad, first) = (read_counters(&self.bad)?, read_counters(&self.bad_first)?);
+    /// The non-finite samples the kernel counted (in `state`, read back), and the first of
+    /// them.
+    fn nonfinite(&self, state: &film_file::FilmState) -> NonFinite {
+        let (bad, first) = (&state.bad, &state.bad_first);
         let width = self.width() as usize;
         let height = self.height() as usize;
         let mut out = NonFinite::default();
         let mut earliest: Option<(u32, usize)> = None;
-        for (pixel, (&n, &f)) in bad.iter().zip(&first).enumerate() {
+        for (pixel, (&n, &f)) in bad.iter().zip(first).enumerate() {
             if n > 0 {
                 out.count += u64::from(n);
                 if earliest.is_none_or(|e| (f, pixel) < e) {
@@ -1109,11 +1125,13 @@ impl<'d> Renderer<'d> {
             let (x, row) = (pixel % width, pixel / width);
             (x as u32, (height - 1 - row) as u32, sample)
         });
-        Ok(out)
+        out
     }
 
-    fn read_film(&self, spp: u32) -> Result<Film> {
-        Ok(self.film_state()?.film(spp))
+    /// The film as the last render read it back at its end, once (several devices add each
+    /// chunk's without reading it again: src/render/multi.rs).
+    pub fn take_film_state(&mut self) -> Option<film_file::FilmState> {
+        self.last_state.take()
     }
 }
 

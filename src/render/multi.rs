@@ -224,7 +224,7 @@ pub fn render_on_devices(
     let (_, stats) = first.render(&mut |_| {})?;
     finish(
         0,
-        &first.film_state()?,
+        &chunk_film(&mut first)?,
         first_chunk,
         t0.elapsed().as_secs_f64(),
     );
@@ -243,7 +243,7 @@ pub fn render_on_devices(
             renderer.render(&mut |_| {})?;
             finish(
                 device,
-                &renderer.film_state()?,
+                &chunk_film(renderer)?,
                 n,
                 t0.elapsed().as_secs_f64(),
             );
@@ -289,4 +289,12 @@ pub fn render_on_devices(
         shares: shares.into_inner().expect("no thread panicked"),
         elapsed: start.elapsed(),
     })
+}
+
+/// The film of the chunk `renderer` has just rendered, as its render read it back.
+fn chunk_film(renderer: &mut Renderer) -> Result<FilmState> {
+    match renderer.take_film_state() {
+        Some(state) => Ok(state),
+        None => renderer.film_state(),
+    }
 }
