@@ -70,7 +70,7 @@ pub struct Balance {
     /// chunk one group.
     pub share_fraction: f64,
     /// The least seconds of a measured device's work a chunk holds while its share is
-    /// larger: each chunk costs a probe pass, two read-backs of the whole film and its sum on
+    /// larger: each chunk costs a probe pass, a read-back of the whole film and its sum on
     /// the host, and halving alone would give a lone GPU about log2(samples / 8) chunks
     /// however short the render (one-second chunks cost an H200 19% on smallpt).
     pub min_chunk_seconds: f64,
