@@ -216,3 +216,32 @@ fn a_chunk_holds_at_least_two_seconds_of_work() {
     }
     assert_eq!(chunks, [8192, 4096, 2048, 2000, 48]);
 }
+
+/// Beside other devices a CPU device keeps a core of the host free for each of their drivers
+/// (device::select_reserving: an OpenCL sub-device), and renders the same image with the
+/// cores it has. On a GPU there is nothing to reserve: its compute units stay.
+#[test]
+fn a_cpu_beside_other_devices_leaves_the_host_a_core_for_each() {
+    let whole = common::device();
+    let index = whole.description.index.to_string();
+    let reserved = clpt::device::select_reserving(Some(&index), 1).unwrap();
+    let units = whole.description.compute_units;
+    let expected = if whole.description.kind == "CPU" {
+        units.saturating_sub(1).max(1)
+    } else {
+        units
+    };
+    assert_eq!(reserved.description.compute_units, expected);
+    let options = RenderOptions {
+        spp: Some(16),
+        light_sampling: LightSampling::Off,
+        roulette: Roulette::Threshold(0.3),
+        ..RenderOptions::default()
+    };
+    let render = |device: &clpt::device::Device| {
+        let mut r =
+            Renderer::new(device, &scene(), &KernelSources::Embedded, options.clone()).unwrap();
+        r.render(&mut |_| {}).unwrap().0.sum
+    };
+    assert!(render(&reserved) == render(&whole), "the same image");
+}
