@@ -245,3 +245,24 @@ fn a_cpu_beside_other_devices_leaves_the_host_a_core_for_each() {
     };
     assert!(render(&reserved) == render(&whole), "the same image");
 }
+
+/// Near u32::MAX samples a chunk rounded up to whole groups does not overflow, and a chunk
+/// timed at (next to) zero seconds leaves the rate unmeasured instead of infinite.
+#[test]
+fn the_queue_holds_at_the_limits() {
+    let mut queue = multi::Queue::new(u32::MAX, 2, 0, Balance::default());
+    queue.measured(0, 8, 0.0);
+    queue.measured(0, 8, 1e-320);
+    assert_eq!(queue.claim(0), Some((0, 8)), "still unmeasured: one group");
+    queue.measured(0, u32::MAX, 1e-9);
+    let mut next = 8u64;
+    while let Some((first, n)) = queue.claim(0) {
+        assert_eq!(u64::from(first), next);
+        next += u64::from(n);
+    }
+    assert_eq!(next, u64::from(u32::MAX));
+    // The whole range at once: u32::MAX rounds up past u32 in whole groups.
+    let mut whole = multi::Queue::new(u32::MAX, 1, 0, Balance::default());
+    whole.measured(0, u32::MAX, 1e-9);
+    assert_eq!(whole.claim(0), Some((0, u32::MAX)));
+}

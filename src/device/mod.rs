@@ -163,10 +163,9 @@ pub fn select(wanted: Option<&str>) -> Result<Device> {
 
 /// [`select`], a CPU device with `reserve` of its compute units left to the host: a run on
 /// several devices keeps one host thread for each other device's driver, whose launches and
-/// waits need a core (Blender's Cycles does the same for each GPU beside its CPU). Without it,
-/// on the H200 machine, PoCL on all 16 cores slowed the GPU beside it 1.2 to 4 times. Done by
-/// an OpenCL 1.2 sub-device of that many units (clCreateSubDevices, partitioned by counts);
-/// where the platform cannot partition, the whole device.
+/// waits need a core (Blender's Cycles does the same for each GPU beside its CPU). Done by an
+/// OpenCL 1.2 sub-device of that many units (clCreateSubDevices, partitioned by counts); where
+/// the platform cannot partition, the whole device.
 pub fn select_reserving(wanted: Option<&str>, reserve: u32) -> Result<Device> {
     let all = list()?;
     let env = std::env::var(DEVICE_ENV)
