@@ -760,14 +760,19 @@ fn render_on_devices(
     if list.is_empty() {
         bail!("--device all: no OpenCL device found");
     }
-    let devices = list
+    let mut devices = list
         .iter()
         .map(|d| {
             // One host thread for each other device's driver (device::select_reserving).
             device::select_reserving(Some(d), list.len() as u32 - 1)
                 .with_context(|| format!("--device entry `{d}`"))
+                .map(|device| (d.clone(), device))
         })
         .collect::<Result<Vec<_>>>()?;
+    // The first device renders the first chunk and the trial: a CPU's would hold up the
+    // rest, so CPUs go last.
+    devices.sort_by_key(|(_, d)| d.description.kind == "CPU");
+    let (list, devices): (Vec<String>, Vec<_>) = devices.into_iter().unzip();
     let total = options.spp.unwrap_or(64);
     let bar = if args.quiet {
         ProgressBar::hidden()

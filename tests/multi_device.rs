@@ -16,6 +16,7 @@ const EVERY_GROUP: Balance = Balance {
     share_fraction: 0.0,
     min_chunk_seconds: 0.0,
     join_seconds: 0.0,
+    min_share: 0.0,
 };
 
 fn scene() -> clpt::scene::Scene {
@@ -111,11 +112,15 @@ fn the_trial_runs_once_and_every_chunk_runs_its_choice() {
 /// half of its share of what is left at its rate; it hands out every sample once, in order.
 #[test]
 fn the_queue_sizes_chunks_to_each_device() {
-    let mut queue = multi::Queue::new(100_000, 2, 1024, Balance::default());
+    let every_share = Balance {
+        min_share: 0.0,
+        ..Balance::default()
+    };
+    let mut queue = multi::Queue::new(100_000, 2, 1024, every_share);
     assert_eq!(queue.claim(1), Some((1024, 8)), "unmeasured: one group");
     queue.measured(0, 1024, 0.5); // 2048 samples a second
     // With less than JOIN_SECONDS of the fast device's work left, an unmeasured one stays out.
-    let mut short = multi::Queue::new(20_000, 2, 1024, Balance::default());
+    let mut short = multi::Queue::new(20_000, 2, 1024, every_share);
     short.measured(0, 1024, 0.5);
     assert_eq!(
         short.claim(1),
@@ -184,6 +189,32 @@ fn chunks_shrink_towards_the_end_in_proportion_to_rates() {
     }
     assert_eq!(next, 1000);
     assert!(chunks <= 16, "{chunks} chunks");
+}
+
+/// A device whose rate is under MIN_SHARE of all claiming devices' takes nothing, probed or
+/// measured; one above it claims (a CPU beside a GPU slows the GPU more than it adds).
+#[test]
+fn a_device_under_its_minimum_share_stays_out() {
+    let mut queue = multi::Queue::new(100_000, 3, 1024, Balance::default());
+    queue.measured(0, 1024, 0.5); // 2048 samples a second
+    queue.probed(1, 0.09 * 2048.0 / 0.91); // 9% of the two
+    queue.probed(2, 400.0);
+    assert_eq!(queue.claim(1), None, "9% of the rate");
+    assert!(queue.claim(2).is_some(), "400 of 2448 a second: 16%");
+    assert!(queue.claim(0).is_some());
+    assert_eq!(queue.claim(1), None, "a stopped device stays out");
+    // Alone, the slowest device still renders everything.
+    let mut alone = multi::Queue::new(1000, 2, 0, Balance::default());
+    alone.probed(1, 1.0);
+    assert!(alone.claim(1).is_some(), "nothing else measured: it claims");
+    let mut probe_only = multi::Queue::new(1000, 1, 0, Balance::default());
+    probe_only.probed(0, f64::NAN);
+    probe_only.probed(0, 0.0);
+    assert_eq!(
+        probe_only.claim(0),
+        Some((0, 8)),
+        "a failed probe leaves it unmeasured"
+    );
 }
 
 /// A device that stops is not counted on: the last one still claiming takes all that is

@@ -348,7 +348,18 @@ pub struct Renderer<'d> {
     /// devices' ([`Self::set_range`]) for [`Self::take_film_state`].
     last_state: Option<film_file::FilmState>,
     keep_state: bool,
+    /// How the last render launched its passes, and for which strategy: the next render of
+    /// that strategy starts from it instead of probing again (a chunk of several devices'
+    /// render would otherwise spend its first pass on launches of one sample: render/multi.rs).
+    launch_plan: Option<(Strategy, LaunchPlan)>,
     options: RenderOptions,
+}
+
+/// The shape of a pass's launches: `rows` rows of `spp` samples each.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct LaunchPlan {
+    rows: u32,
+    spp: u32,
 }
 
 /// What the render loop does after a pass ([`Renderer::render_with`]).
@@ -602,6 +613,7 @@ impl<'d> Renderer<'d> {
             start_samples: 0,
             last_state: None,
             keep_state: false,
+            launch_plan: None,
             options,
         };
         renderer.select(strategy)?;
@@ -726,6 +738,23 @@ impl<'d> Renderer<'d> {
         }
         self.select(current)?;
         self.clear_film()
+    }
+
+    /// Samples per pixel per second of the current strategy, from one sample on every eighth
+    /// row (after [`Self::warm_up`], whose film it clears): what a device offers before it
+    /// renders a chunk of several devices' render (render/multi.rs).
+    pub fn probe_rate(&mut self) -> Result<f64> {
+        self.warm_up()?;
+        let height = self.height();
+        let step = 8.min(height);
+        let rows = Rows {
+            start: 0,
+            count: height.div_ceil(step),
+            step,
+        };
+        let seconds = self.render_rows(rows, self.options.first_sample, 1)?;
+        self.clear_film()?;
+        Ok(f64::from(rows.count) / f64::from(height) / seconds)
     }
 
     /// Renders `rows` x samples [sample_start, +count) in launches of about the launch target
@@ -881,9 +910,16 @@ impl<'d> Renderer<'d> {
         let mut report = Vec::new();
         let mut launches = 0u32;
         let mut passes = 0u32;
-        // The first launch is a small probe (a band of rows, one sample) to measure the rate.
-        let mut rows_per_launch = height.min(GROUP as u32 * 2);
-        let mut spp_per_launch = 1u32;
+        // The first launch is a small probe (a band of rows, one sample) to measure the rate,
+        // unless the last render measured this strategy's.
+        let probe = LaunchPlan {
+            rows: height.min(GROUP as u32 * 2),
+            spp: 1,
+        };
+        let mut plan = match self.launch_plan {
+            Some((strategy, plan)) if strategy == self.strategy => plan,
+            _ => probe,
+        };
         loop {
             let remaining = total.map_or(u32::MAX, |t| t.saturating_sub(spp_done));
             if remaining == 0 {
@@ -895,11 +931,11 @@ impl<'d> Renderer<'d> {
             {
                 break;
             }
-            let count = spp_per_launch.min(remaining);
+            let count = plan.spp.min(remaining);
             let mut pass_rate = f64::INFINITY;
             let mut row = 0;
             while row < height {
-                let rows = rows_per_launch.min(height - row);
+                let rows = plan.rows.min(height - row);
                 let t0 = Instant::now();
                 self.launch(
                     Rows::band(row, rows),
@@ -952,14 +988,19 @@ impl<'d> Renderer<'d> {
             }
             // Plan the next pass from the slowest launch of this one.
             let budget = pass_rate * target; // pixel samples per launch
-            if budget >= pixels {
-                rows_per_launch = height;
-                spp_per_launch = ((budget / pixels) as u32).clamp(1, 1 << 16);
+            plan = if budget >= pixels {
+                LaunchPlan {
+                    rows: height,
+                    spp: ((budget / pixels) as u32).clamp(1, 1 << 16),
+                }
             } else {
-                spp_per_launch = 1;
-                rows_per_launch = ((budget / width as f64) as u32).clamp(1, height);
-            }
+                LaunchPlan {
+                    rows: ((budget / width as f64) as u32).clamp(1, height),
+                    spp: 1,
+                }
+            };
         }
+        self.launch_plan = Some((self.strategy, plan));
         let elapsed = start.elapsed();
         // One read-back of the whole film: the image, the counters and (for several devices'
         // chunks, `take_film_state`) the sums all come from it.

@@ -86,6 +86,11 @@ pub struct Balance {
     /// Seconds of work the measured devices must have left for a device not yet measured to
     /// take its first group (whose time is unknown until it has rendered it).
     pub join_seconds: f64,
+    /// A device whose rate is below this share of all claiming devices' rates stops: a CPU
+    /// device beside a GPU loads the host that the GPU's driver runs on. On the H200 machine
+    /// (BENCHMARKS.md) PoCL on 15 of its 16 cores rendered 1% of case0's samples and slowed the
+    /// GPU by 12%.
+    pub min_share: f64,
 }
 
 /// The CLI's balance: half of a device's share but at least [`MIN_CHUNK_SECONDS`] of its
@@ -96,9 +101,13 @@ impl Default for Balance {
             share_fraction: 0.5,
             min_chunk_seconds: MIN_CHUNK_SECONDS,
             join_seconds: JOIN_SECONDS,
+            min_share: MIN_SHARE,
         }
     }
 }
+
+/// The default [`Balance::min_share`].
+pub const MIN_SHARE: f64 = 0.1;
 
 /// The default [`Balance::min_chunk_seconds`].
 pub const MIN_CHUNK_SECONDS: f64 = 2.0;
@@ -132,16 +141,24 @@ impl Queue {
 
     /// Records that `device` rendered `samples` in `seconds`.
     pub fn measured(&mut self, device: usize, samples: u32, seconds: f64) {
-        let rate = f64::from(samples) / seconds;
-        if samples > 0 && rate.is_finite() && rate > 0.0 {
+        if samples > 0 {
+            self.probed(device, f64::from(samples) / seconds);
+        }
+    }
+
+    /// Records `device`'s rate in samples per second, as its probe measured it before its
+    /// first chunk ([`Renderer::probe_rate`]) or a chunk did.
+    pub fn probed(&mut self, device: usize, rate: f64) {
+        if rate.is_finite() && rate > 0.0 {
             self.rates[device] = Some(rate);
         }
     }
 
     /// The next chunk for `device`, as (first sample relative to the render's start, samples),
     /// or None when it should stop: nothing is left, the other devices still claiming (at
-    /// their measured rates) finish all that is left sooner than it would finish one group, or
-    /// it is not measured yet and they have less than [`Balance::join_seconds`] of work left.
+    /// their measured rates) finish all that is left sooner than it would finish one group, its
+    /// rate is under [`Balance::min_share`] of theirs and its own, or it is not measured yet and
+    /// they have less than [`Balance::join_seconds`] of work left.
     /// What is left only shrinks, so a device told to stop is not needed later; the last one
     /// still claiming never stops before the end.
     pub fn claim(&mut self, device: usize) -> Option<(u32, u32)> {
@@ -155,7 +172,11 @@ impl Queue {
             .sum();
         let stop = match self.rates[device] {
             None => others > 0.0 && f64::from(left) / others < self.balance.join_seconds,
-            Some(rate) => others > 0.0 && 8.0 / rate > f64::from(left) / others,
+            Some(rate) => {
+                others > 0.0
+                    && (8.0 / rate > f64::from(left) / others
+                        || rate < self.balance.min_share * (rate + others))
+            }
         };
         if stop {
             self.active[device] = false;
@@ -267,11 +288,18 @@ pub fn render_on_devices(
     };
     std::thread::scope(|scope| {
         for (i, device) in devices.iter().enumerate().skip(1) {
-            let (run, error, failed) = (&run, &error, &failed);
+            let (run, error, failed, queue) = (&run, &error, &failed, &queue);
             scope.spawn(move || {
                 let mut pinned = options.clone();
                 pinned.pin(strategy);
-                match Renderer::new(device, scene, sources, pinned) {
+                // A probe measures the device's rate before it claims: a slow one stays
+                // out without holding up the end with a group of eight samples.
+                let probed = Renderer::new(device, scene, sources, pinned).and_then(|mut r| {
+                    let rate = r.probe_rate()?;
+                    queue.lock().expect("no thread panicked").probed(i, rate);
+                    Ok(r)
+                });
+                match probed {
                     Ok(r) => run(i, r),
                     Err(e) => {
                         failed.store(true, Ordering::Relaxed);
