@@ -5,7 +5,12 @@
 # info        the GPU, the OpenCL devices, every scene built and rendered once by NVIDIA's compiler
 # tests       the kernel tests on the GPU (CLPT_DEVICE=NVIDIA)
 # estimators  tools/estimators.sh over the showcases and scenes/ at defaults and fixed settings
-# films       checkpoint cost; several devices (the GPU and the CPU device, if there is one)
+# films       checkpoints, then devices:
+#   checkpoints  the cost of writing a film file, and of checkpoints in a render
+#   devices      several devices (the GPU and the CPU device, if there is one)
+# trials      the trial's cost: each binary of $TRIAL_BINS (default ./clpt; built by hand with
+#             other trial shares, carried in device-run/) at the defaults against each short
+#             scene's best fixed setting, $REPS rounds (default 3)
 # mitsuba     tools/mitsuba-compare.py --cuda (needs .whl/ from tools/pack-mitsuba-wheels carried)
 # bench       cold builds and rates of each scene's program and of all features; the goblet alone
 # Results under $OUT, one file a stage (at most 8 files come back).
@@ -56,10 +61,13 @@ estimators() {
   tail -n +2 /tmp/rest.csv >> $OUT/estimators.csv
 }
 
-films() {
+wall() { local t=$EPOCHREALTIME; "$@" > /tmp/wall.log 2>&1; local rc=$?
+  echo "$(python3 -c "print(f'{$EPOCHREALTIME - $t:.3f}')") s wall (exit $rc): $(tail -1 /tmp/wall.log)"; }
+
+films() { checkpoints; devices; }
+
+checkpoints() {
   export CLPT_DEVICE=NVIDIA
-  wall() { local t=$EPOCHREALTIME; "$@" > /tmp/wall.log 2>&1; local rc=$?
-    echo "$(python3 -c "print(f'{$EPOCHREALTIME - $t:.3f}')") s wall (exit $rc): $(tail -1 /tmp/wall.log)"; }
   echo "## checkpoint cost: the built-in room at 1 spp without and with --film (3 runs each)"
   for size in "1280 720" "1920 1080" "3840 2160"; do
     set -- $size
@@ -76,7 +84,11 @@ films() {
     wall ./clpt render scenes/smallpt.txt --width 1920 --height 1080 --spp 4096 -q \
       --light-sampling on --rr-threshold 0.3 -o /tmp/nock.png
   done
-  echo "## several devices: the GPU alone, the CPU alone (fewer samples: its rate), both"
+}
+
+devices() {
+  export CLPT_DEVICE=NVIDIA
+  echo "## several devices: the GPU alone, the CPU alone (fewer samples: its rate), both (CPU listed first)"
   ./clpt devices
   gpu=$(./clpt devices | grep -m1 '(GPU' | grep -o '^\[[0-9]*' | tr -d '[')
   cpu=$(./clpt devices | grep -m1 '(CPU' | grep -o '^\[[0-9]*' | tr -d '[')
@@ -86,13 +98,35 @@ films() {
     wall ./clpt render $1 --spp $2 --device $gpu -q --light-sampling off --rr-threshold 0.3 -o /tmp/m0.pfm
     echo "# $1, --device $cpu (CPU), $3 spp"
     wall timeout 120 ./clpt render $1 --spp $3 --device $cpu -q --light-sampling off --rr-threshold 0.3 -o /tmp/m1.pfm
-    echo "# $1, --device $gpu,$cpu, $2 spp"
-    timeout 200 ./clpt render $1 --spp $2 --device $gpu,$cpu -q --light-sampling off --rr-threshold 0.3 -o /tmp/m01.pfm 2>&1 | tail -4
+    echo "# $1, --device $cpu,$gpu, $2 spp"
+    wall timeout 200 ./clpt render $1 --spp $2 --device $cpu,$gpu -q --light-sampling off --rr-threshold 0.3 -o /tmp/m01.pfm
+    tail -4 /tmp/wall.log
     ./clpt compare /tmp/m0.pfm /tmp/m01.pfm 2>&1 | tail -1
   done
   ./clpt render scenes/smallpt.txt --spp 1024 --seed 1 -o /tmp/det_a.pfm -q 2>/dev/null
   ./clpt render scenes/smallpt.txt --spp 1024 --seed 1 -o /tmp/det_b.pfm -q 2>/dev/null
   cmp /tmp/det_a.pfm /tmp/det_b.pfm && echo "determinism: two renders with seed 1 identical"
+}
+
+trials() {
+  export CLPT_DEVICE=NVIDIA
+  local best="$seed/case2_softshadows_colorbleeding.txt:512:off:0.3 scenes/ceiling_room.txt:4096:on:0.3
+    scenes/room.txt:4096:on:1 scenes/small_light.txt:4096:on:0.3 scenes/smallpt.txt:4096:on:0.3
+    scenes/goblet.txt:256:off:0.3"
+  echo "scene,setting,spp,seconds,relmse_estimate,relmse_x_seconds,estimator,binary,round" > $OUT/trials.csv
+  for round in $(seq "${REPS:-3}"); do
+    for entry in $best; do
+      IFS=: read -r file spp light rr <<< "$entry"
+      for bin in ${TRIAL_BINS:-./clpt} fixed; do
+        if [ $bin = fixed ]; then
+          SETTINGS=$light:$rr tools/estimators.sh ./clpt /tmp/t.csv $file:$spp > /dev/null
+        else
+          SETTINGS=auto tools/estimators.sh $bin /tmp/t.csv $file:$spp > /dev/null
+        fi
+        tail -1 /tmp/t.csv | sed "s|\$|,$(basename $bin),$round|" | tee -a $OUT/trials.csv
+      done
+    done
+  done
 }
 
 mitsuba() {

@@ -256,6 +256,18 @@ pub struct RenderStats {
     pub stopped: bool,
 }
 
+/// What the render loop did ([`Renderer::trace`]), before the film is read back.
+struct Traced {
+    elapsed: Duration,
+    launches: u32,
+    passes: u32,
+    /// Samples per pixel the film holds at the end.
+    spp_done: u32,
+    report: Vec<PassReport>,
+    choice: Choice,
+    stopped: bool,
+}
+
 /// Path samples that came out infinite or NaN (kernels/pathtracer.cl, `render_pass`): never
 /// added to the film, counted as 0, and reported.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -344,10 +356,6 @@ pub struct Renderer<'d> {
     bad_first: ocl::Buffer<u32>,
     /// Samples per pixel the film already holds when the next render starts ([`Self::resume`]).
     start_samples: u32,
-    /// The film as the last render read it back, kept when the render is a chunk of several
-    /// devices' ([`Self::set_range`]) for [`Self::take_film_state`].
-    last_state: Option<film_file::FilmState>,
-    keep_state: bool,
     /// How the last render launched its passes, and for which strategy: the next render of
     /// that strategy starts from it instead of probing again (a chunk of several devices'
     /// render would otherwise spend its first pass on launches of one sample: render/multi.rs).
@@ -611,8 +619,6 @@ impl<'d> Renderer<'d> {
             bad,
             bad_first,
             start_samples: 0,
-            last_state: None,
-            keep_state: false,
             launch_plan: None,
             options,
         };
@@ -899,6 +905,65 @@ impl<'d> Renderer<'d> {
         &mut self,
         on_pass: &mut dyn FnMut(&Progress, &Renderer) -> Result<Flow>,
     ) -> Result<(Film, RenderStats)> {
+        let traced = self.trace(on_pass, true)?;
+        // One read-back of the whole film: the image and the counters both come from it.
+        let state = self.film_state()?;
+        let film = state.film(traced.spp_done);
+        let nonfinite = self.nonfinite(&state);
+        let overflowed = Overflowed::of(&film);
+        let pixels = f64::from(self.width()) * f64::from(self.height());
+        Ok((
+            film,
+            RenderStats {
+                elapsed: traced.elapsed,
+                launches: traced.launches,
+                passes: traced.passes,
+                paths_per_second: pixels * f64::from(traced.spp_done - self.start_samples)
+                    / traced.elapsed.as_secs_f64().max(1e-9),
+                report: traced.report,
+                choice: traced.choice,
+                nonfinite,
+                overflowed,
+                stopped: traced.stopped,
+            },
+        ))
+    }
+
+    /// Traces samples `first .. first + spp` (`first` a multiple of 8) into the film as it
+    /// stands, without reading it back or estimating its error: a chunk of a render that
+    /// several devices split (render/multi.rs). A device's chunks come in increasing order, so
+    /// its film sums its samples in the order one render would; [`Self::film_state`] reads it
+    /// once after the last. The first chunk runs the trial when there is one: the choice.
+    /// `on_pass` gets the samples per pixel of the chunk done after every pass.
+    pub fn render_chunk(
+        &mut self,
+        first: u32,
+        spp: u32,
+        on_pass: &mut dyn FnMut(u32),
+    ) -> Result<Choice> {
+        if !first.is_multiple_of(8) {
+            return Err(Error::Invalid(format!(
+                "the first sample {first} is not a multiple of 8"
+            )));
+        }
+        self.options.first_sample = first;
+        self.options.spp = Some(spp);
+        self.start_samples = 0;
+        let mut pass = |p: &Progress, _: &Renderer| {
+            on_pass(p.spp_done);
+            Ok(Flow::Continue)
+        };
+        Ok(self.trace(&mut pass, false)?.choice)
+    }
+
+    /// The render loop: the trial, then passes until the sample count, the time limit, the
+    /// target error or the callback's stop. With `estimate`, the film's error is estimated
+    /// after every pass (the report, the target error and the progress line need it).
+    fn trace(
+        &mut self,
+        on_pass: &mut dyn FnMut(&Progress, &Renderer) -> Result<Flow>,
+        estimate_errors: bool,
+    ) -> Result<Traced> {
         let (width, height) = (self.width(), self.height());
         let pixels = width as f64 * height as f64;
         let target = self.options.launch_target.as_secs_f64().max(1e-3);
@@ -953,7 +1018,7 @@ impl<'d> Renderer<'d> {
                 break; // sample indices are 32-bit
             }
             let mut estimate = None;
-            if spp_done >= MIN_SPP_FOR_ESTIMATE {
+            if estimate_errors && spp_done >= MIN_SPP_FOR_ESTIMATE {
                 let (e, measured) = self.errors.measure(spp_done, pixels)?;
                 let seconds = start.elapsed().as_secs_f64();
                 report.push(PassReport {
@@ -1001,31 +1066,15 @@ impl<'d> Renderer<'d> {
             };
         }
         self.launch_plan = Some((self.strategy, plan));
-        let elapsed = start.elapsed();
-        // One read-back of the whole film: the image, the counters and (for several devices'
-        // chunks, `take_film_state`) the sums all come from it.
-        let state = self.film_state()?;
-        let film = state.film(spp_done);
-        let nonfinite = self.nonfinite(&state);
-        let overflowed = Overflowed::of(&film);
-        if self.keep_state {
-            self.last_state = Some(state);
-        }
-        Ok((
-            film,
-            RenderStats {
-                elapsed,
-                launches,
-                passes,
-                paths_per_second: pixels * (spp_done - self.start_samples) as f64
-                    / elapsed.as_secs_f64().max(1e-9),
-                report,
-                choice,
-                nonfinite,
-                overflowed,
-                stopped,
-            },
-        ))
+        Ok(Traced {
+            elapsed: start.elapsed(),
+            launches,
+            passes,
+            spp_done,
+            report,
+            choice,
+            stopped,
+        })
     }
 
     /// The rows of `rows` of a film buffer, in one rectangular read.
@@ -1114,23 +1163,6 @@ impl<'d> Renderer<'d> {
         self.select(strategy)
     }
 
-    /// The next render traces samples `first .. first + spp` (`first` a multiple of 8) into a
-    /// cleared film: a share of a render that several devices split (render/multi.rs), whose
-    /// film [`Self::take_film_state`] then gives without reading it again.
-    pub fn set_range(&mut self, first: u32, spp: u32) -> Result<()> {
-        if !first.is_multiple_of(8) {
-            return Err(Error::Invalid(format!(
-                "the first sample {first} is not a multiple of 8"
-            )));
-        }
-        self.options.first_sample = first;
-        self.options.spp = Some(spp);
-        self.start_samples = 0;
-        self.keep_state = true;
-        self.last_state = None;
-        self.clear_film()
-    }
-
     /// The whole film as the device holds it (to write a film file).
     pub fn film_state(&self) -> Result<film_file::FilmState> {
         Ok(film_file::FilmState {
@@ -1167,12 +1199,6 @@ impl<'d> Renderer<'d> {
             (x as u32, (height - 1 - row) as u32, sample)
         });
         out
-    }
-
-    /// The film as the last render read it back at its end, once (several devices add each
-    /// chunk's without reading it again: src/render/multi.rs).
-    pub fn take_film_state(&mut self) -> Option<film_file::FilmState> {
-        self.last_state.take()
     }
 }
 

@@ -1,28 +1,31 @@
 //! Several devices in one run (issue 13): the samples of every pixel split in chunks of whole
-//! groups of eight, which the devices take from one shared queue as each finishes the last;
-//! each chunk is rendered into a cleared film and added on the host
-//! ([`Accumulator`](super::merge::Accumulator)).
+//! groups of eight, which the devices take from one shared queue as each finishes the last.
+//! Each device traces its chunks into its own film, in increasing sample order; at the end
+//! each film is read back once and added on the host
+//! ([`Accumulator`](super::merge::Accumulator)). Reading a chunk's film back each time cost an
+//! H200 12% of case0's time at 2560x1440 (BENCHMARKS.md).
 //!
 //! Devices differ in speed by two orders of magnitude (an H200 against PoCL on its host's
 //! CPU), so a chunk is sized to the device that claims it, by guided self-scheduling
-//! (Polychronopoulos and Kuck 1987) weighted by measured rates: one group while its rate is
-//! unknown, then [`Balance::share_fraction`] of its share of what is left at every device's
-//! rate, but no less than [`Balance::min_chunk_seconds`] of its work. Chunks start large (a
-//! chunk's fixed cost, clearing and reading back the film and adding it on the host, stays
-//! small: chunks of one second of work cost an H200 19% on smallpt and more on larger films)
-//! and shrink towards the end, so that all devices end together. A device whose smallest chunk
-//! would outlast the others' time for everything left takes no more, and a device not yet
-//! measured joins only while the others have [`Balance::join_seconds`] of work left: a slow
-//! device helps a long render, and delays one only where its first group takes longer than
-//! that.
+//! (Polychronopoulos and Kuck 1987) weighted by measured rates: before its first chunk a
+//! device probes its rate ([`Renderer::probe_rate`]: one sample on every eighth row), then
+//! claims [`Balance::share_fraction`] of its share of what is left at every device's rate, but
+//! no less than [`Balance::min_chunk_seconds`] of its work; a device with no other still
+//! claiming takes all that is left. Chunks start large and shrink towards the end, so that all
+//! devices end together. A device whose smallest chunk (one group) would outlast the others'
+//! time for everything left takes no more: a slow device helps a long render and never holds
+//! up the end by more than its rate's error. One not measured at all (its probe failed)
+//! joins only while the others have [`Balance::join_seconds`] of work left.
 //!
 //! Why the image does not depend on the split: every random number is a function of (seed,
 //! pixel, sample, dimension), so a chunk traces the same paths on any device, and the sum of
-//! the chunks' compensated sums (in f64) is the sum of all samples to far below f32's
+//! the devices' compensated sums (in f64) is the sum of all samples to far below f32's
 //! precision: the image is one device's render's to within the 1e-6 of the compensated sums
-//! (tests/multi_device.rs), and its error estimate carries over as in a merge. The strategy is
-//! chosen once: the first chunk runs on the first device with the options' candidates (the
-//! trial, when there is one), and every later chunk on every device runs what it chose.
+//! (tests/multi_device.rs; bit-identical when only one device rendered), and its error
+//! estimate carries over as in a merge. Devices of other vendors round differently, so their
+//! samples differ in the last bits. The strategy is chosen once: the first chunk runs on the
+//! first device with the options' candidates (the trial, when there is one), and every later
+//! chunk on every device runs what it chose.
 
 use super::film_file::FilmState;
 use super::merge::Accumulator;
@@ -79,18 +82,13 @@ pub struct Balance {
     /// chunk one group.
     pub share_fraction: f64,
     /// The least seconds of a measured device's work a chunk holds while its share is
-    /// larger: each chunk costs a probe pass, a read-back of the whole film and its sum on
-    /// the host, and halving alone would give a lone GPU about log2(samples / 8) chunks
-    /// however short the render (one-second chunks cost an H200 19% on smallpt).
+    /// larger: each chunk ends on a pass shorter than the others and pays a queue's round
+    /// trip, and halving alone would give a device about log2(samples / 8) chunks however
+    /// short the render.
     pub min_chunk_seconds: f64,
     /// Seconds of work the measured devices must have left for a device not yet measured to
     /// take its first group (whose time is unknown until it has rendered it).
     pub join_seconds: f64,
-    /// A device whose rate is below this share of all claiming devices' rates stops: a CPU
-    /// device beside a GPU loads the host that the GPU's driver runs on. On the H200 machine
-    /// (BENCHMARKS.md) PoCL on 15 of its 16 cores rendered 1% of case0's samples and slowed the
-    /// GPU by 12%.
-    pub min_share: f64,
 }
 
 /// The CLI's balance: half of a device's share but at least [`MIN_CHUNK_SECONDS`] of its
@@ -101,13 +99,9 @@ impl Default for Balance {
             share_fraction: 0.5,
             min_chunk_seconds: MIN_CHUNK_SECONDS,
             join_seconds: JOIN_SECONDS,
-            min_share: MIN_SHARE,
         }
     }
 }
-
-/// The default [`Balance::min_share`].
-pub const MIN_SHARE: f64 = 0.1;
 
 /// The default [`Balance::min_chunk_seconds`].
 pub const MIN_CHUNK_SECONDS: f64 = 2.0;
@@ -156,11 +150,10 @@ impl Queue {
 
     /// The next chunk for `device`, as (first sample relative to the render's start, samples),
     /// or None when it should stop: nothing is left, the other devices still claiming (at
-    /// their measured rates) finish all that is left sooner than it would finish one group, its
-    /// rate is under [`Balance::min_share`] of theirs and its own, or it is not measured yet and
-    /// they have less than [`Balance::join_seconds`] of work left.
+    /// their measured rates) finish all that is left sooner than it would finish one group, or
+    /// it is not measured yet and they have less than [`Balance::join_seconds`] of work left.
     /// What is left only shrinks, so a device told to stop is not needed later; the last one
-    /// still claiming never stops before the end.
+    /// still claiming never stops before the end, and takes all that is left at once.
     pub fn claim(&mut self, device: usize) -> Option<(u32, u32)> {
         let left = self.total - self.next;
         if left == 0 || !self.active[device] {
@@ -172,17 +165,16 @@ impl Queue {
             .sum();
         let stop = match self.rates[device] {
             None => others > 0.0 && f64::from(left) / others < self.balance.join_seconds,
-            Some(rate) => {
-                others > 0.0
-                    && (8.0 / rate > f64::from(left) / others
-                        || rate < self.balance.min_share * (rate + others))
-            }
+            Some(rate) => others > 0.0 && 8.0 / rate > f64::from(left) / others,
         };
         if stop {
             self.active[device] = false;
             return None;
         }
+        let alone = (0..self.active.len()).all(|d| d == device || !self.active[d]);
         let n = match self.rates[device] {
+            // Nothing to balance against: everything left (progress comes from the passes).
+            _ if alone => left,
             None => 8,
             Some(rate) => {
                 let share = f64::from(left) * rate / (rate + others);
@@ -234,54 +226,65 @@ pub fn render_on_devices(
             .collect::<Vec<_>>(),
     );
     let done = AtomicU32::new(0);
-    // A finished chunk goes into the film; the progress callback sees every device's share.
-    let finish = |device: usize, state: &FilmState, samples: u32, seconds: f64| {
-        accumulator.lock().expect("no thread panicked").add(state);
-        (queue.lock().expect("no thread panicked")).measured(device, samples, seconds);
-        let mut shares = shares.lock().expect("no thread panicked");
-        shares[device].samples += samples;
-        shares[device].seconds += seconds;
-        let spp_done = done.fetch_add(samples, Ordering::Relaxed) + samples;
+    // Samples per pixel of each device's chunk in flight, after its last pass.
+    let in_flight = Mutex::new(vec![0u32; devices.len()]);
+    // After every pass the progress callback sees every device's share, chunks in flight
+    // counted as far as they have come.
+    let report = |device: usize, chunk_done: u32| {
+        let mut in_flight = in_flight.lock().expect("no thread panicked");
+        in_flight[device] = chunk_done;
+        let mut shares = shares.lock().expect("no thread panicked").clone();
+        for (share, &n) in shares.iter_mut().zip(in_flight.iter()) {
+            share.samples += n;
+        }
         on_progress(&MultiProgress {
-            spp_done,
+            spp_done: done.load(Ordering::Relaxed) + in_flight.iter().sum::<u32>(),
             spp_total: total,
             elapsed: start.elapsed(),
             shares: &shares,
         });
     };
+    let finish = |device: usize, samples: u32, seconds: f64| {
+        (queue.lock().expect("no thread panicked")).measured(device, samples, seconds);
+        {
+            // The chunk leaves the in-flight count as it joins the done one.
+            let mut in_flight = in_flight.lock().expect("no thread panicked");
+            in_flight[device] = 0;
+            let mut shares = shares.lock().expect("no thread panicked");
+            shares[device].samples += samples;
+            shares[device].seconds += seconds;
+            done.fetch_add(samples, Ordering::Relaxed);
+        }
+        report(device, 0);
+    };
     // The first chunk chooses the strategy.
-    first.set_range(options.first_sample, first_chunk)?;
     let t0 = Instant::now();
-    let (_, stats) = first.render(&mut |_| {})?;
-    finish(
-        0,
-        &chunk_film(&mut first)?,
-        first_chunk,
-        t0.elapsed().as_secs_f64(),
-    );
-    let strategy = stats.choice.strategy();
+    let choice = first.render_chunk(options.first_sample, first_chunk, &mut |n| report(0, n))?;
+    finish(0, first_chunk, t0.elapsed().as_secs_f64());
+    let strategy = choice.strategy();
     first.fix_strategy(strategy)?;
     let failed = AtomicBool::new(false);
     let error: Mutex<Option<Error>> = Mutex::new(None);
-    let work = |device: usize, renderer: &mut Renderer| -> Result<()> {
+    // A device renders its chunks into its own film, read back and added once at the end.
+    let work = |device: usize, renderer: &mut Renderer, mut rendered: bool| -> Result<()> {
         loop {
             let claim = queue.lock().expect("no thread panicked").claim(device);
             let Some((a, n)) = claim.filter(|_| !failed.load(Ordering::Relaxed)) else {
-                return Ok(());
+                break;
             };
-            renderer.set_range(options.first_sample + a, n)?;
             let t0 = Instant::now();
-            renderer.render(&mut |_| {})?;
-            finish(
-                device,
-                &chunk_film(renderer)?,
-                n,
-                t0.elapsed().as_secs_f64(),
-            );
+            renderer.render_chunk(options.first_sample + a, n, &mut |k| report(device, k))?;
+            finish(device, n, t0.elapsed().as_secs_f64());
+            rendered = true;
         }
+        if rendered && !failed.load(Ordering::Relaxed) {
+            let state = renderer.film_state()?;
+            accumulator.lock().expect("no thread panicked").add(&state);
+        }
+        Ok(())
     };
-    let run = |device: usize, mut renderer: Renderer| {
-        if let Err(e) = work(device, &mut renderer) {
+    let run = |device: usize, mut renderer: Renderer, rendered: bool| {
+        if let Err(e) = work(device, &mut renderer, rendered) {
             failed.store(true, Ordering::Relaxed);
             error.lock().expect("no thread panicked").get_or_insert(e);
         }
@@ -300,7 +303,7 @@ pub fn render_on_devices(
                     Ok(r)
                 });
                 match probed {
-                    Ok(r) => run(i, r),
+                    Ok(r) => run(i, r, false),
                     Err(e) => {
                         failed.store(true, Ordering::Relaxed);
                         error.lock().expect("no thread panicked").get_or_insert(e);
@@ -308,7 +311,7 @@ pub fn render_on_devices(
                 }
             });
         }
-        run(0, first);
+        run(0, first, true);
     });
     if let Some(e) = error.into_inner().expect("no thread panicked") {
         return Err(e);
@@ -323,16 +326,8 @@ pub fn render_on_devices(
     }
     Ok(MultiRender {
         film: accumulator.into_inner().expect("no thread panicked").film(),
-        choice: stats.choice,
+        choice,
         shares: shares.into_inner().expect("no thread panicked"),
         elapsed: start.elapsed(),
     })
-}
-
-/// The film of the chunk `renderer` has just rendered, as its render read it back.
-fn chunk_film(renderer: &mut Renderer) -> Result<FilmState> {
-    match renderer.take_film_state() {
-        Some(state) => Ok(state),
-        None => renderer.film_state(),
-    }
 }
