@@ -16,11 +16,12 @@
 //! value reaches any error sooner.
 //! - A short render's trial is one round ([`trial_plan`]: [`TRIAL_SHARE`] of its samples,
 //!   on rows thinned out as far as that needs).
-//! - A longer one scouts first ([`scout_plan`]: [`TRIAL_SPP`] samples on every fourth row)
-//!   and drops the candidates that are clearly worse ([`Choice::survivors`]); only the rest
-//!   render the full round ([`full_round_plan`]), sized to [`FULL_ROUND_SHARE`] of the render's
-//!   time at the best one's speed. Light sampling can double a path's price, and a trial of
-//!   fixed samples per candidate then cost 6-12% of a render on the H200; this one 2-3%.
+//! - A longer one scouts first ([`scout_plan`]: [`TRIAL_SPP`] samples on every fourth row, or
+//!   on fewer rows within [`SCOUT_SHARE`] of its samples) and drops the candidates that are
+//!   clearly worse ([`Choice::survivors`]); only the rest render the full round
+//!   ([`full_round_plan`]), sized to [`FULL_ROUND_SHARE`] of the render's time at the best one's
+//!   speed. Light sampling can double a path's price, and a trial of fixed samples per
+//!   candidate then cost 6-12% of a render on the H200; this one about 1-2%.
 //!
 //! The render then goes on with the winner from sample 0, or, when the winner rendered the
 //! full round last and on every row, from the samples that round left in the film: either way
@@ -54,8 +55,19 @@ pub const RR_THRESHOLDS: [f32; 2] = [1.0, 0.3];
 const TRIAL_SHARE: f64 = 0.06;
 
 /// The full round after scouting takes about this share of the render's time
-/// ([`full_round_plan`]).
-const FULL_ROUND_SHARE: f64 = 0.03;
+/// ([`full_round_plan`]). On the H200 (BENCHMARKS.md) 0.03 cost the short scenes 1.1 to 1.5
+/// points more than 0.0075 behind the best fixed setting, and chose the same everywhere.
+const FULL_ROUND_SHARE: f64 = 0.0075;
+
+/// The scouting round takes at most this share of a render's samples, all candidates together
+/// ([`scout_plan`]): every fourth row cost the goblet (256 samples, light sampling useless
+/// and dear) 5.7% of its time.
+const SCOUT_SHARE: f64 = 0.01;
+
+/// ...but each candidate traces at least this many paths in it (or every row): fewer would
+/// time a GPU's launch latency instead of the candidate (an H200 traces 2^20 of the goblet's
+/// paths in about 20 ms, against its 0.1 ms latency).
+const MIN_SCOUT_PATHS: f64 = (1 << 20) as f64;
 
 /// The row sampling of the shortest trials, and of the scouting round: every fourth row.
 const MIN_ROW_STEP: u32 = 4;
@@ -216,14 +228,16 @@ pub fn plan_for_budget(budget: f64, height: u32) -> TrialPlan {
 }
 
 /// The plan of the full round after scouting, or `None` when it would be no larger than the
-/// scouting round: the `survivors` share [`FULL_ROUND_SHARE`] of the time a render of `spp`
-/// samples would take with the fastest-converging of them (by the scouts' timings), so the
-/// round costs the same few percent however slow the losers are.
+/// scouting round (`scouted`): the `survivors` share [`FULL_ROUND_SHARE`] of the time a render
+/// of `spp` samples would take with the fastest-converging of them (by the scouts' timings),
+/// so the round costs the same share however slow the losers are. It spends that on more
+/// samples rather than on more than about [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]).
 pub fn full_round_plan(
     scout: &Choice,
+    scouted: TrialPlan,
     survivors: &[usize],
     spp: u32,
-    height: u32,
+    (width, height): (u32, u32),
 ) -> Option<TrialPlan> {
     let chosen = &scout.measured[scout.chosen];
     let total: f64 = survivors
@@ -231,15 +245,64 @@ pub fn full_round_plan(
         .map(|&i| scout.measured[i].seconds_per_sample)
         .sum();
     let budget = FULL_ROUND_SHARE * f64::from(spp) * chosen.seconds_per_sample / total;
-    let plan = plan_for_budget(budget, height);
-    let scouted = scout_plan(height);
+    let plan = plan_on_rows(budget, row_step_for(width, height, TRIAL_PIXELS), height);
     (survivors.len() > 1 && budget.is_finite() && plan.cost() > scouted.cost()).then_some(plan)
 }
 
-/// The scouting round of a long render's trial: [`TRIAL_SPP`] samples on every fourth row (the
-/// shortest trial).
-pub fn scout_plan(height: u32) -> TrialPlan {
-    plan_for_budget(0.0, height)
+/// The pixels past which a full round takes more samples on fewer rows: the trial's figures
+/// are those of its samples per pixel (the quasi-random samples gain more with more of them),
+/// and the pixels beyond about 2^18 add little to their precision but cost read-backs and
+/// host time (on the H200 machine, 22 ms a candidate for smallpt's 786,432 pixels).
+const TRIAL_PIXELS: u64 = 1 << 18;
+
+/// The plan of `budget` full-image samples per pixel on every `step`-th row: as many whole
+/// [`TRIAL_SPP`]s as that affords there, up to [`MAX_TRIAL_SPP`] (past which the rows grow
+/// closer); a budget of less than [`TRIAL_SPP`] on those rows thins them out
+/// ([`plan_for_budget`]).
+pub fn plan_on_rows(budget: f64, step: u32, height: u32) -> TrialPlan {
+    let step = step.clamp(1, height.max(1));
+    // A NaN budget counts as too small.
+    if budget * f64::from(step) < f64::from(TRIAL_SPP) || budget.is_nan() {
+        return plan_for_budget(budget, height);
+    }
+    let step = if budget * f64::from(step) > f64::from(MAX_TRIAL_SPP) {
+        ((f64::from(MAX_TRIAL_SPP) / budget) as u32).clamp(1, step)
+    } else {
+        step
+    };
+    let groups = (budget * f64::from(step) / f64::from(TRIAL_SPP)) as u32;
+    TrialPlan {
+        row_step: step,
+        samples: (groups.max(1) * TRIAL_SPP).min(MAX_TRIAL_SPP),
+    }
+}
+
+/// The scouting round of a long render's trial for `candidates` on an image of `width` x
+/// `height`: [`TRIAL_SPP`] samples on every fourth row's worth, or less where that would cost
+/// more than [`SCOUT_SHARE`] of a render of `spp` samples, but never fewer than
+/// [`MIN_SCOUT_PATHS`] paths a candidate; spent on more samples rather than on more than about
+/// [`SCOUT_PIXELS`] pixels.
+pub fn scout_plan(candidates: usize, spp: Option<u32>, width: u32, height: u32) -> TrialPlan {
+    let widest = f64::from(TRIAL_SPP) / f64::from(MIN_ROW_STEP);
+    let pixels = f64::from(width) * f64::from(height);
+    let budget = spp.map_or(widest, |n| {
+        (SCOUT_SHARE * f64::from(n) / candidates.max(1) as f64)
+            .max(MIN_SCOUT_PATHS / pixels.max(1.0))
+            .min(widest)
+    });
+    plan_on_rows(budget, row_step_for(width, height, SCOUT_PIXELS), height)
+}
+
+/// The scouting round's pixels: enough for its figures' standard errors to be a small part of
+/// the margin by which it drops candidates (a pixel's term spreads about as much as its mean,
+/// so 2^16 pixels give about 0.5%), while its read-backs stay short (on the H200 machine about
+/// 6 ms a candidate for 196,608 pixels).
+const SCOUT_PIXELS: u64 = 1 << 16;
+
+/// The row step that leaves about `cap` of an image's pixels.
+fn row_step_for(width: u32, height: u32, cap: u64) -> u32 {
+    let pixels = u64::from(width) * u64::from(height);
+    pixels.div_ceil(cap).min(u64::from(u32::MAX)) as u32
 }
 
 /// What the trial measured of one candidate.
@@ -383,10 +446,11 @@ impl Choice {
 }
 
 /// One candidate's trial film: per trial pixel, the sum of its samples and the sum of those of
-/// its odd group of four (kernels/pathtracer.cl, `render_pass`).
+/// its odd group of four (kernels/pathtracer.cl, `render_pass`), as the film holds them (red,
+/// green, blue and a fourth value the trial does not read).
 pub struct TrialFilm {
-    pub sum: Vec<[f32; 3]>,
-    pub sum_odd: Vec<[f32; 3]>,
+    pub sum: Vec<[f32; 4]>,
+    pub sum_odd: Vec<[f32; 4]>,
     pub samples: u32,
     pub seconds: f64,
 }
@@ -406,26 +470,85 @@ fn stratified_variance(sum: f32, sum_odd: f32, n: f64) -> f64 {
     difference * difference * n / 4.0
 }
 
-/// The image mean of a trial film (summed over pixels and channels) and its standard error.
-fn total_mean(film: &TrialFilm) -> (f64, f64) {
-    let n = f64::from(film.samples);
-    let (mut mean, mut var) = (0.0, 0.0);
-    for (s, o) in film.sum.iter().zip(&film.sum_odd) {
-        for c in 0..3 {
-            mean += f64::from(s[c]) / n;
-            var += stratified_variance(s[c], o[c], n) / n;
+/// Pixels a unit of the trial's statistics covers: the units are summed in order, so the
+/// figures do not depend on how many threads computed them.
+const CHUNK: usize = 1 << 14;
+
+/// `f` of every [`CHUNK`] of `0..n`, in order, computed on as many threads as the machine
+/// offers (or here, where a thread cannot start). On the H200 machine one thread took 47 ms
+/// over the 786,432 pixels of two candidates: a third of smallpt's trial.
+fn by_chunks<T: Send>(n: usize, f: impl Fn(std::ops::Range<usize>) -> T + Sync) -> Vec<T> {
+    let chunks = n.div_ceil(CHUNK);
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |t| t.get())
+        .min(chunks);
+    let work = |first: usize| -> Vec<(usize, T)> {
+        (first..chunks)
+            .step_by(threads.max(1))
+            .map(|c| (c, f(c * CHUNK..((c + 1) * CHUNK).min(n))))
+            .collect()
+    };
+    let mut done: Vec<(usize, T)> = std::thread::scope(|scope| {
+        let helpers: Vec<_> = (1..threads)
+            .map(|t| {
+                (
+                    t,
+                    std::thread::Builder::new().spawn_scoped(scope, move || work(t)),
+                )
+            })
+            .collect();
+        let mut done = work(0);
+        for (t, helper) in helpers {
+            match helper.map(|h| h.join()) {
+                Ok(Ok(part)) => done.extend(part),
+                Ok(Err(panic)) => std::panic::resume_unwind(panic),
+                Err(_) => done.extend(work(t)),
+            }
         }
-    }
-    (mean, var.sqrt())
+        done
+    });
+    done.sort_unstable_by_key(|&(c, _)| c);
+    done.into_iter().map(|(_, t)| t).collect()
 }
 
-/// The relative variance's denominator of each trial pixel and channel, mean² + ε: the mean of
-/// the trusted candidates' films weighted by the precision of their image means. Pooling
+/// The image mean of each trial film (summed over pixels and channels) and its standard error.
+fn total_means(films: &[TrialFilm], n_pixels: usize) -> Vec<(f64, f64)> {
+    let parts = by_chunks(n_pixels, |range| {
+        films
+            .iter()
+            .map(|film| {
+                let n = f64::from(film.samples);
+                let (mut mean, mut var) = (0.0, 0.0);
+                for (s, o) in film.sum[range.clone()]
+                    .iter()
+                    .zip(&film.sum_odd[range.clone()])
+                {
+                    for c in 0..3 {
+                        mean += f64::from(s[c]) / n;
+                        var += stratified_variance(s[c], o[c], n) / n;
+                    }
+                }
+                (mean, var)
+            })
+            .collect::<Vec<_>>()
+    });
+    (0..films.len())
+        .map(|k| {
+            let (mean, var) = parts
+                .iter()
+                .fold((0.0, 0.0), |(m, v), part| (m + part[k].0, v + part[k].1));
+            (mean, var.sqrt())
+        })
+        .collect()
+}
+
+/// Each film's weight in the relative variance's denominator (mean² + ε of every trial pixel
+/// and channel, [`relative_variances`]): the trusted candidates' films weighted by the
+/// precision of their image means, summing to 1, and divided by their sample counts. Pooling
 /// lessens the noise of a few samples per pixel; the weights keep a noisy candidate's rare
 /// bright sample from raising its own pixel's denominator and hiding its variance, and one
 /// that missed rare paths from pulling the denominator down.
-fn denominator(films: &[TrialFilm], totals: &[(f64, f64)], missed: &[bool]) -> Vec<[f64; 3]> {
-    let n_pixels = films.first().map_or(0, |f| f.sum.len());
+fn denominator_weights(films: &[TrialFilm], totals: &[(f64, f64)], missed: &[bool]) -> Vec<f64> {
     let weights: Vec<f64> = totals
         .iter()
         .zip(missed)
@@ -440,21 +563,52 @@ fn denominator(films: &[TrialFilm], totals: &[(f64, f64)], missed: &[bool]) -> V
         })
         .collect();
     let total_weight: f64 = weights.iter().sum();
-    let mut mean = vec![[0.0f64; 3]; n_pixels];
-    for (film, &w) in films.iter().zip(&weights) {
-        let k = if total_weight > 0.0 {
-            w / total_weight
-        } else {
-            1.0 / films.len() as f64
-        } / f64::from(film.samples);
-        for (m, s) in mean.iter_mut().zip(&film.sum) {
-            for c in 0..3 {
-                m[c] += k * f64::from(s[c]);
+    films
+        .iter()
+        .zip(&weights)
+        .map(|(film, &w)| {
+            let share = if total_weight > 0.0 {
+                w / total_weight
+            } else {
+                1.0 / films.len() as f64
+            };
+            share / f64::from(film.samples)
+        })
+        .collect()
+}
+
+/// Per film, the sum over trial pixels of each pixel's relative variance of one sample (its
+/// channels' mean) and of its square.
+fn relative_variances(films: &[TrialFilm], weights: &[f64], n_pixels: usize) -> Vec<(f64, f64)> {
+    let parts = by_chunks(n_pixels, |range| {
+        let mut sums = vec![(0.0f64, 0.0f64); films.len()];
+        for p in range {
+            let mut denominator = [0.0f64; 3];
+            for (film, &w) in films.iter().zip(weights) {
+                for (d, &v) in denominator.iter_mut().zip(&film.sum[p][..3]) {
+                    *d += w * f64::from(v);
+                }
+            }
+            let denominator = denominator.map(|m| m * m + f64::from(REL_EPSILON));
+            for (film, sum) in films.iter().zip(&mut sums) {
+                let n = f64::from(film.samples);
+                let (s, o) = (film.sum[p], film.sum_odd[p]);
+                let term = (0..3)
+                    .map(|c| stratified_variance(s[c], o[c], n) / denominator[c])
+                    .sum::<f64>()
+                    / 3.0;
+                sum.0 += term;
+                sum.1 += term * term;
             }
         }
-    }
-    mean.into_iter()
-        .map(|m| m.map(|c| c * c + f64::from(REL_EPSILON)))
+        sums
+    });
+    (0..films.len())
+        .map(|k| {
+            parts
+                .iter()
+                .fold((0.0, 0.0), |(a, b), part| (a + part[k].0, b + part[k].1))
+        })
         .collect()
 }
 
@@ -475,8 +629,8 @@ pub fn choose(
     pixels: f64,
     trial_seconds: f64,
 ) -> Choice {
-    let n_pixels = films.first().map_or(0, |f| f.sum.len()).max(1);
-    let totals: Vec<(f64, f64)> = films.iter().map(total_mean).collect();
+    let n_pixels = films.first().map_or(0, |f| f.sum.len());
+    let totals = total_means(films, n_pixels);
     let mut reference = 0;
     for (i, &(mean, se)) in totals.iter().enumerate() {
         let (best_mean, best_se) = totals[reference];
@@ -490,28 +644,19 @@ pub fn choose(
         .iter()
         .map(|&(mean, se)| mean < ref_mean - MISSED_SIGMAS * se.hypot(ref_se))
         .collect();
-    let denominator = denominator(films, &totals, &missed);
+    let weights = denominator_weights(films, &totals, &missed);
+    let sums = relative_variances(films, &weights, n_pixels);
+    let np = n_pixels.max(1) as f64;
     let measured: Vec<Measured> = strategies
         .iter()
         .zip(films)
+        .zip(sums)
         .enumerate()
-        .map(|(i, (&strategy, film))| {
-            let n = f64::from(film.samples);
-            // Each pixel's term (its channels' mean), their mean and spread.
-            let (mut rel, mut rel_sq) = (0.0, 0.0);
-            for ((s, o), d) in film.sum.iter().zip(&film.sum_odd).zip(&denominator) {
-                let term = (0..3)
-                    .map(|c| stratified_variance(s[c], o[c], n) / d[c])
-                    .sum::<f64>()
-                    / 3.0;
-                rel += term;
-                rel_sq += term * term;
-            }
-            let np = n_pixels as f64;
+        .map(|(i, ((&strategy, film), (rel, rel_sq)))| {
             let mean = rel / np;
             Measured {
                 strategy,
-                seconds_per_sample: film.seconds / (n * np),
+                seconds_per_sample: film.seconds / (f64::from(film.samples) * np),
                 relative_variance: mean,
                 relative_variance_se: ((rel_sq / np - mean * mean).max(0.0) / np).sqrt(),
                 missed_rare_paths: missed[i],
@@ -620,8 +765,8 @@ mod tests {
     /// every channel.
     fn film(pixels: usize, even: f32, odd: f32, seconds: f64) -> TrialFilm {
         TrialFilm {
-            sum: vec![[even + odd; 3]; pixels],
-            sum_odd: vec![[odd; 3]; pixels],
+            sum: vec![[even + odd; 4]; pixels],
+            sum_odd: vec![[odd; 4]; pixels],
             samples: TRIAL_SPP,
             seconds,
         }
@@ -649,7 +794,7 @@ mod tests {
         let s = [strategy(true, 1.0), strategy(false, 1.0)];
         // Pixel means 1 with a little noise, against means of 0.5 with less noise: by the two
         // being unbiased estimates of one image, the second missed its rare bright samples.
-        let precise: Vec<[f32; 3]> = (0..400).map(|i| [4.0 + (i % 3) as f32 * 0.1; 3]).collect();
+        let precise: Vec<[f32; 4]> = (0..400).map(|i| [4.0 + (i % 3) as f32 * 0.1; 4]).collect();
         let a = TrialFilm {
             sum: precise.iter().map(|p| p.map(|v| v * 2.0)).collect(),
             sum_odd: precise.clone(),
@@ -690,13 +835,24 @@ mod tests {
         };
         // The best comes last, so that its film is the one left when it wins again.
         assert_eq!(scout.survivors(), [1, 3, 2]);
-        // The full round: 3% of a 1000-sample render at the best's speed, shared by three
+        // The full round: 0.75% of a 4000-sample render at the best's speed, shared by three
         // candidates of equal speed: 10 samples' worth each, 8 on every row.
-        let plan = full_round_plan(&scout, &[1, 3, 2], 1000, 480).unwrap();
+        let scouted = scout_plan(4, Some(4000), 640, 480);
+        assert_eq!((scouted.row_step, scouted.samples), (5, 8));
+        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (640, 480)).unwrap();
+        assert_eq!((plan.row_step, plan.samples), (2, 16));
+        // On 512x512 pixels (2^18) every row.
+        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (512, 512)).unwrap();
         assert_eq!((plan.row_step, plan.samples), (1, 8));
-        // A short render affords no more than the scouting round: no full round.
-        assert_eq!(full_round_plan(&scout, &[1, 3, 2], 100, 480), None);
-        assert_eq!(full_round_plan(&scout, &[2], 1000, 480), None);
+        // A shorter render affords no more than the scouting round: no full round.
+        assert_eq!(
+            full_round_plan(&scout, scouted, &[1, 3, 2], 600, (640, 480)),
+            None
+        );
+        assert_eq!(
+            full_round_plan(&scout, scouted, &[2], 4000, (640, 480)),
+            None
+        );
         // Merged: the full round's figures for the survivors, the scouts' for the dropped.
         let full = Choice {
             measured: vec![
@@ -715,5 +871,44 @@ mod tests {
         assert_eq!(merged.measured[1].relative_variance, 0.9);
         assert_eq!(merged.measured[3].relative_variance, 1.6);
         assert_eq!(merged.seconds, 2.0);
+    }
+
+    #[test]
+    fn a_full_round_takes_more_samples_on_fewer_rows() {
+        let plan = |budget, step| {
+            let p = plan_on_rows(budget, step, 1080);
+            (p.row_step, p.samples)
+        };
+        // 15 samples' worth on every 3rd row: 40 samples (45 in whole groups of 8).
+        assert_eq!(plan(15.0, 3), (3, 40));
+        // Past 64 samples the rows grow closer: 40 samples' worth on every 2nd row of 64.
+        assert_eq!(plan(40.0, 3), (1, 40));
+        assert_eq!(plan(20.0, 5), (3, 56));
+        assert_eq!(plan(1000.0, 4), (1, 64));
+        // Less than 8 samples on those rows: fewer rows.
+        assert_eq!(plan(1.0, 3), (8, 8));
+    }
+
+    #[test]
+    fn scouting_takes_a_share_of_short_renders_but_enough_paths() {
+        let plan = |spp, width, height| {
+            let p = scout_plan(4, spp, width, height);
+            (p.row_step, p.samples)
+        };
+        // 256 samples, four candidates: 1% is 0.64 samples' worth each; on every 32nd row
+        // (2^16 of 1920x1080's pixels) that is 20 samples, 16 in whole groups of eight.
+        assert_eq!(plan(Some(256), 1920, 1080), (32, 16));
+        // ...but never fewer than 2^20 paths a candidate: at 64 samples, 0.51 samples' worth,
+        // not 0.16.
+        assert_eq!(plan(Some(64), 1920, 1080), (32, 16));
+        assert_eq!(plan(Some(16), 1920, 1080), (32, 16));
+        // The floor is 16 samples on 2^16 pixels, however large the image.
+        assert_eq!(plan(Some(16), 4000, 4000), (245, 16));
+        // A long render: 8 samples on every fourth row's worth, on 2^16 pixels where the
+        // image has more: 24 samples on every 12th row of 1024x768.
+        assert_eq!(plan(Some(100_000), 1024, 768), (12, 24));
+        assert_eq!(plan(None, 1024, 768), (12, 24));
+        // A small image: every fourth row.
+        assert_eq!(plan(Some(100_000), 320, 240), (4, 8));
     }
 }
