@@ -16,12 +16,15 @@
 //! value reaches any error sooner.
 //! - A short render's trial is one round ([`trial_plan`]: [`TRIAL_SHARE`] of its samples,
 //!   on rows thinned out as far as that needs).
-//! - A longer one scouts first ([`scout_plan`]: [`TRIAL_SPP`] samples on every fourth row, or
-//!   on fewer rows within [`SCOUT_SHARE`] of its samples) and drops the candidates that are
-//!   clearly worse ([`Choice::survivors`]); only the rest render the full round
-//!   ([`full_round_plan`]), sized to [`FULL_ROUND_SHARE`] of the render's time at the best one's
-//!   speed. Light sampling can double a path's price, and a trial of fixed samples per
-//!   candidate then cost 6-12% of a render on the H200; this one about 1-2%.
+//! - A longer one scouts first ([`scout_plan`]: [`TRIAL_SPP`] samples on every fourth row's
+//!   worth, within [`SCOUT_SHARE`] of its samples) and drops the candidates that are clearly
+//!   worse ([`Choice::survivors`]); only the rest render the full round ([`full_round_plan`]),
+//!   sized to [`FULL_ROUND_SHARE`] of the render's time at the best one's speed. Light sampling
+//!   can double a path's price, and a trial of fixed samples per candidate then cost 6-12% of a
+//!   render on the H200; this one 1-2% of the showcases'.
+//! - Each round spends its budget on more samples rather than on more than about
+//!   [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]): their read-backs and statistics ([`choose`],
+//!   on all cores) cost more than the renders of a fast scene's trial.
 //!
 //! The render then goes on with the winner from sample 0, or, when the winner rendered the
 //! full round last and on every row, from the samples that round left in the film: either way
@@ -249,10 +252,13 @@ pub fn full_round_plan(
     (survivors.len() > 1 && budget.is_finite() && plan.cost() > scouted.cost()).then_some(plan)
 }
 
-/// The pixels past which a full round takes more samples on fewer rows: the trial's figures
+/// The pixels past which a trial round takes more samples on fewer rows. The trial's figures
 /// are those of its samples per pixel (the quasi-random samples gain more with more of them),
-/// and the pixels beyond about 2^18 add little to their precision but cost read-backs and
-/// host time (on the H200 machine, 22 ms a candidate for smallpt's 786,432 pixels).
+/// and pixels beyond about 2^18 add little to their precision (a pixel's term spreads about as
+/// much as its mean: 2^18 pixels give about 0.25%) but cost read-backs and host time (on the
+/// H200 machine 22 ms a candidate for smallpt's 786,432 pixels). Fewer would leave a GPU idle,
+/// a work-item a pixel: an H200 keeps 270,336 resident (132 units of 2048), and a scouting
+/// round on 2^16 pixels took case1 1.48 s where every fourth row had taken 0.60 s.
 const TRIAL_PIXELS: u64 = 1 << 18;
 
 /// The plan of `budget` full-image samples per pixel on every `step`-th row: as many whole
@@ -281,7 +287,7 @@ pub fn plan_on_rows(budget: f64, step: u32, height: u32) -> TrialPlan {
 /// `height`: [`TRIAL_SPP`] samples on every fourth row's worth, or less where that would cost
 /// more than [`SCOUT_SHARE`] of a render of `spp` samples, but never fewer than
 /// [`MIN_SCOUT_PATHS`] paths a candidate; spent on more samples rather than on more than about
-/// [`SCOUT_PIXELS`] pixels.
+/// [`TRIAL_PIXELS`] pixels.
 pub fn scout_plan(candidates: usize, spp: Option<u32>, width: u32, height: u32) -> TrialPlan {
     let widest = f64::from(TRIAL_SPP) / f64::from(MIN_ROW_STEP);
     let pixels = f64::from(width) * f64::from(height);
@@ -290,14 +296,8 @@ pub fn scout_plan(candidates: usize, spp: Option<u32>, width: u32, height: u32) 
             .max(MIN_SCOUT_PATHS / pixels.max(1.0))
             .min(widest)
     });
-    plan_on_rows(budget, row_step_for(width, height, SCOUT_PIXELS), height)
+    plan_on_rows(budget, row_step_for(width, height, TRIAL_PIXELS), height)
 }
-
-/// The scouting round's pixels: enough for its figures' standard errors to be a small part of
-/// the margin by which it drops candidates (a pixel's term spreads about as much as its mean,
-/// so 2^16 pixels give about 0.5%), while its read-backs stay short (on the H200 machine about
-/// 6 ms a candidate for 196,608 pixels).
-const SCOUT_PIXELS: u64 = 1 << 16;
 
 /// The row step that leaves about `cap` of an image's pixels.
 fn row_step_for(width: u32, height: u32, cap: u64) -> u32 {
@@ -838,7 +838,7 @@ mod tests {
         // The full round: 0.75% of a 4000-sample render at the best's speed, shared by three
         // candidates of equal speed: 10 samples' worth each, 8 on every row.
         let scouted = scout_plan(4, Some(4000), 640, 480);
-        assert_eq!((scouted.row_step, scouted.samples), (5, 8));
+        assert_eq!((scouted.row_step, scouted.samples), (4, 8));
         let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (640, 480)).unwrap();
         assert_eq!((plan.row_step, plan.samples), (2, 16));
         // On 512x512 pixels (2^18) every row.
@@ -895,20 +895,18 @@ mod tests {
             let p = scout_plan(4, spp, width, height);
             (p.row_step, p.samples)
         };
-        // 256 samples, four candidates: 1% is 0.64 samples' worth each; on every 32nd row
-        // (2^16 of 1920x1080's pixels) that is 20 samples, 16 in whole groups of eight.
-        assert_eq!(plan(Some(256), 1920, 1080), (32, 16));
-        // ...but never fewer than 2^20 paths a candidate: at 64 samples, 0.51 samples' worth,
-        // not 0.16.
-        assert_eq!(plan(Some(64), 1920, 1080), (32, 16));
-        assert_eq!(plan(Some(16), 1920, 1080), (32, 16));
-        // The floor is 16 samples on 2^16 pixels, however large the image.
-        assert_eq!(plan(Some(16), 4000, 4000), (245, 16));
-        // A long render: 8 samples on every fourth row's worth, on 2^16 pixels where the
-        // image has more: 24 samples on every 12th row of 1024x768.
-        assert_eq!(plan(Some(100_000), 1024, 768), (12, 24));
-        assert_eq!(plan(None, 1024, 768), (12, 24));
-        // A small image: every fourth row.
+        // 256 samples, four candidates: 1% is 0.64 samples' worth each: 8 samples on every
+        // 13th row.
+        assert_eq!(plan(Some(256), 1920, 1080), (13, 8));
+        // ...but never fewer than 2^20 paths a candidate: at 64 samples, 0.51 samples' worth
+        // (every 16th row), not 0.16.
+        assert_eq!(plan(Some(64), 1920, 1080), (16, 8));
+        assert_eq!(plan(Some(16), 4000, 4000), (123, 8));
+        // A long render: 8 samples on every fourth row's worth, on 2^18 pixels where the
+        // image has more: 24 samples on every 15th row of 2560x1440.
+        assert_eq!(plan(Some(100_000), 2560, 1440), (15, 24));
+        assert_eq!(plan(None, 2560, 1440), (15, 24));
+        assert_eq!(plan(Some(100_000), 1024, 768), (4, 8));
         assert_eq!(plan(Some(100_000), 320, 240), (4, 8));
     }
 }
