@@ -863,7 +863,7 @@ impl<'d> Renderer<'d> {
             }
             self.select(candidate)?;
             let seconds = self.render_rows(rows, self.options.first_sample, plan.samples)?;
-            let pixels = |buffer: &ocl::Buffer<f32>| -> Result<Vec<[f32; 4]>> {
+            let trial_rows = |buffer: &ocl::Buffer<f32>| -> Result<Vec<[f32; 4]>> {
                 Ok(bytemuck::allocation::cast_vec(
                     self.read_rows(buffer, rows)?,
                 ))
@@ -871,8 +871,8 @@ impl<'d> Renderer<'d> {
             // The trial's few samples (at most 64) need no compensation: `sum` alone is exact
             // enough.
             films.push(TrialFilm {
-                sum: pixels(&self.sum)?,
-                sum_odd: pixels(&self.sum_odd)?,
+                sum: trial_rows(&self.sum)?,
+                sum_odd: trial_rows(&self.sum_odd)?,
                 samples: plan.samples,
                 seconds,
             });

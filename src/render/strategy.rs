@@ -836,7 +836,8 @@ mod tests {
         // The best comes last, so that its film is the one left when it wins again.
         assert_eq!(scout.survivors(), [1, 3, 2]);
         // The full round: 0.75% of a 4000-sample render at the best's speed, shared by three
-        // candidates of equal speed: 10 samples' worth each, 8 on every row.
+        // candidates of equal speed: 10 samples' worth each; on every 2nd row of 640x480 (2^18
+        // pixels at most), 16 samples.
         let scouted = scout_plan(4, Some(4000), 640, 480);
         assert_eq!((scouted.row_step, scouted.samples), (4, 8));
         let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (640, 480)).unwrap();
@@ -881,7 +882,9 @@ mod tests {
         };
         // 15 samples' worth on every 3rd row: 40 samples (45 in whole groups of 8).
         assert_eq!(plan(15.0, 3), (3, 40));
-        // Past 64 samples the rows grow closer: 40 samples' worth on every 2nd row of 64.
+        // Past 64 samples the rows grow closer: 40 samples' worth on every 3rd row would be
+        // 120 samples, so every row takes 40, and 20 samples' worth on every 5th row 56 on
+        // every 3rd.
         assert_eq!(plan(40.0, 3), (1, 40));
         assert_eq!(plan(20.0, 5), (3, 56));
         assert_eq!(plan(1000.0, 4), (1, 64));
