@@ -524,8 +524,8 @@ fn render(args: &RenderArgs) -> Result<u8> {
     }
     // A program that could not be cached costs its build again next time: say so always.
     let mut not_cached: Vec<&str> = Vec::new();
-    for e in renderer.estimators() {
-        if let CacheUse::NotStored(why) = &e.program.cache
+    for (_, program) in renderer.programs() {
+        if let CacheUse::NotStored(why) = &program.cache
             && !args.verbose
             && !not_cached.contains(&why.as_str())
         {
@@ -537,7 +537,9 @@ fn render(args: &RenderArgs) -> Result<u8> {
     }
     if args.verbose {
         for e in renderer.estimators() {
-            let program = &e.program;
+            eprintln!("features ({}): {}", e.label(), e.features);
+        }
+        for (which, program) in renderer.programs() {
             let seconds = program.build_time.as_secs_f64();
             let origin = match &program.cache {
                 CacheUse::Off => format!("built in {seconds:.2} s (no program cache)"),
@@ -554,12 +556,6 @@ fn render(args: &RenderArgs) -> Result<u8> {
                     format!("built in {seconds:.2} s, not cached: {why}")
                 }
             };
-            let which = if e.light_sampling {
-                "with light sampling"
-            } else {
-                "without light sampling"
-            };
-            eprintln!("features ({which}): {}", e.features);
             eprintln!("program ({which}): {origin}, options `{}`", program.options);
         }
         let candidates: Vec<String> = renderer

@@ -33,6 +33,7 @@ const EMBEDDED: &[(&str, &str)] = &[
     ("objects.h", include_str!("../../kernels/objects.h")),
     ("material.h", include_str!("../../kernels/material.h")),
     ("nee.h", include_str!("../../kernels/nee.h")),
+    ("trial.cl", include_str!("../../kernels/trial.cl")),
     ("pathtracer.cl", include_str!("../../kernels/pathtracer.cl")),
     ("probes.cl", include_str!("../../kernels/probes.cl")),
 ];

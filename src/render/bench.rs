@@ -67,9 +67,9 @@ pub fn bench_scene(
     let program = if options.all_features { "all" } else { "scene" };
     let mut renderer = Renderer::new(device, scene, sources, uncached.clone())?;
     let build_seconds: f64 = renderer
-        .estimators()
+        .programs()
         .iter()
-        .map(|e| e.program.build_time.as_secs_f64())
+        .map(|(_, p)| p.build_time.as_secs_f64())
         .sum();
     renderer.warm_up()?;
     let (film, stats) = renderer.render(&mut |_| {})?;

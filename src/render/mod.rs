@@ -20,6 +20,7 @@ pub mod multi;
 pub mod report;
 pub mod resume;
 pub mod strategy;
+pub mod trial;
 
 use crate::device::Device;
 use crate::device::layout::{self, RenderParams};
@@ -31,7 +32,7 @@ use features::Features;
 use film::Film;
 use metrics::{LinearImage, Metrics};
 use std::time::{Duration, Instant};
-use strategy::{Choice, LightSampling, Roulette, Strategy, TrialFilm};
+use strategy::{Choice, LightSampling, Roulette, Strategy};
 
 /// Work-group edge: launches are padded to whole 8x8 groups.
 const GROUP: usize = 8;
@@ -312,13 +313,24 @@ pub struct Estimator {
     kernel: ocl::Kernel,
 }
 
+impl Estimator {
+    /// What sets this program apart, as `-v` prints it.
+    pub fn label(&self) -> &'static str {
+        if self.light_sampling {
+            "with light sampling"
+        } else {
+            "without light sampling"
+        }
+    }
+}
+
 /// A set of image rows a launch covers: `count` rows from `start`, every `step`-th (row 0 is the
 /// bottom of the image; kernels/pathtracer.cl `render_pass`).
-#[derive(Clone, Copy, Debug)]
-struct Rows {
-    start: u32,
-    count: u32,
-    step: u32,
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Rows {
+    pub start: u32,
+    pub count: u32,
+    pub step: u32,
 }
 
 impl Rows {
@@ -343,6 +355,8 @@ pub struct Renderer<'d> {
     pub packed: PackedScene,
     params: RenderParams,
     errors: ErrorKernel,
+    /// The strategy trial's statistics (kernels/trial.cl), when there is a trial.
+    trial: Option<trial::TrialKernels>,
     // The kernels hold these buffers' handles; they live as long as the kernels do.
     scene_buffers: SceneBuffers,
     /// The film: per pixel the sums of the samples (`sum` + `sum_lo`, compensated), of their
@@ -601,6 +615,18 @@ impl<'d> Renderer<'d> {
             [&sum, &sum_lo, &sum_odd, &sum_odd_lo],
             &options,
         )?;
+        let trial = if candidates.len() > 1 {
+            Some(trial::TrialKernels::new(
+                device,
+                sources,
+                options.cache_dir.as_deref(),
+                &sum,
+                &sum_odd,
+                packed.camera.width,
+            )?)
+        } else {
+            None
+        };
         let strategy = candidates[0];
         let mut renderer = Renderer {
             device,
@@ -610,6 +636,7 @@ impl<'d> Renderer<'d> {
             packed,
             params,
             errors,
+            trial,
             scene_buffers,
             sum,
             sum_lo,
@@ -642,6 +669,20 @@ impl<'d> Renderer<'d> {
     /// The first program built (with light sampling when that is a candidate).
     pub fn program(&self) -> &BuiltProgram {
         &self.estimators[0].program
+    }
+
+    /// Every program built for this render, each with what it is for: the render's, light
+    /// sampling first, then the trial's statistics when there is a trial.
+    pub fn programs(&self) -> Vec<(&'static str, &BuiltProgram)> {
+        let mut all: Vec<(&'static str, &BuiltProgram)> = self
+            .estimators
+            .iter()
+            .map(|e| (e.label(), &e.program))
+            .collect();
+        if let Some(trial) = &self.trial {
+            all.push(("the trial's statistics", trial.program()));
+        }
+        all
     }
 
     /// The strategies the render chooses among, the preferred first.
@@ -802,7 +843,12 @@ impl<'d> Renderer<'d> {
         let height = self.height();
         let all: Vec<usize> = (0..self.candidates.len()).collect();
         // A short render's trial is one round, as large as it affords; a longer one scouts.
-        let scout = strategy::scout_plan(all.len(), self.options.spp, self.width(), height);
+        let scout = strategy::scout_plan(
+            all.len(),
+            self.options.spp,
+            (self.width(), height),
+            strategy::min_scout_paths(&self.device.description.kind),
+        );
         let first = strategy::trial_plan(all.len(), self.options.spp, height);
         let first = if first.cost() > scout.cost() {
             scout
@@ -839,8 +885,9 @@ impl<'d> Renderer<'d> {
     }
 
     /// One round of the trial: the candidates `which` (indices into the candidate list), in
-    /// that order, each render the plan's rows and samples; the film is cleared between them
-    /// and the last one's left in it.
+    /// that order, each render the plan's rows and samples, which are kept on the device
+    /// (render/trial.rs) before the film is cleared for the next; the last one's are left in
+    /// the film.
     fn trial_round(
         &mut self,
         which: &[usize],
@@ -855,35 +902,35 @@ impl<'d> Renderer<'d> {
             count: (height - first_row).div_ceil(step),
             step,
         };
-        let mut films = Vec::new();
         let strategies: Vec<Strategy> = which.iter().map(|&i| self.candidates[i]).collect();
-        for (k, &candidate) in strategies.iter().enumerate() {
-            if k > 0 {
-                self.clear_film()?;
+        let kernels = self
+            .trial
+            .take()
+            .expect("trial kernels wherever there are several candidates");
+        let round = (|| {
+            let mut kept = kernels.round(rows, strategies.len(), plan.samples)?;
+            let mut seconds = Vec::new();
+            for (k, &candidate) in strategies.iter().enumerate() {
+                if k > 0 {
+                    self.clear_film()?;
+                }
+                self.select(candidate)?;
+                seconds.push(self.render_rows(rows, self.options.first_sample, plan.samples)?);
+                // The trial's few samples (at most 64) need no compensation: `sum` alone is
+                // exact enough.
+                kept.keep(k)?;
             }
-            self.select(candidate)?;
-            let seconds = self.render_rows(rows, self.options.first_sample, plan.samples)?;
-            let trial_rows = |buffer: &ocl::Buffer<f32>| -> Result<Vec<[f32; 4]>> {
-                Ok(bytemuck::allocation::cast_vec(
-                    self.read_rows(buffer, rows)?,
-                ))
-            };
-            // The trial's few samples (at most 64) need no compensation: `sum` alone is exact
-            // enough.
-            films.push(TrialFilm {
-                sum: trial_rows(&self.sum)?,
-                sum_odd: trial_rows(&self.sum_odd)?,
-                samples: plan.samples,
+            let round = strategy::Round {
+                strategies: strategies.clone(),
                 seconds,
-            });
-        }
-        let pixels = width as f64 * height as f64;
-        Ok(strategy::choose(
-            &strategies,
-            &films,
-            pixels,
-            start.elapsed().as_secs_f64(),
-        ))
+                samples: plan.samples,
+                pixels: kept.pixels(),
+            };
+            let pixels = width as f64 * height as f64;
+            strategy::choose(&round, &mut kept, pixels, start.elapsed().as_secs_f64())
+        })();
+        self.trial = Some(kernels);
+        round
     }
 
     /// Renders until the sample count or time limit, calling `on_progress` after every pass.
@@ -1077,42 +1124,6 @@ impl<'d> Renderer<'d> {
             choice,
             stopped,
         })
-    }
-
-    /// The rows of `rows` of a film buffer: all but the last in one rectangular read, the last
-    /// in a plain one. NVIDIA's driver (580.159.04) refuses a rectangle that ends within a
-    /// row step of the buffer's end (CL_INVALID_VALUE for every 32nd row of 1920x1080 from
-    /// row 15, where 1920x1088 passed), although the rows read lie inside it.
-    fn read_rows(&self, buffer: &ocl::Buffer<f32>, rows: Rows) -> Result<Vec<f32>> {
-        let row = self.width() as usize * 4; // floats
-        let mut flat = vec![0.0f32; rows.count as usize * row];
-        let fail = |e: ocl::Error| Error::opencl("reading the trial's rows back", e);
-        let float = std::mem::size_of::<f32>();
-        let Some(last) = rows.count.checked_sub(1) else {
-            return Ok(flat);
-        };
-        let (head, tail) = flat.split_at_mut(last as usize * row);
-        if last > 0 {
-            buffer
-                .read(head)
-                .rect(
-                    [rows.start as usize * row, 0, 0],
-                    [0, 0, 0],
-                    [row, last as usize, 1],
-                    rows.step as usize * row * float,
-                    0,
-                    row * float,
-                    0,
-                )
-                .enq()
-                .map_err(fail)?;
-        }
-        buffer
-            .read(tail)
-            .offset((rows.start + last * rows.step) as usize * row)
-            .enq()
-            .map_err(fail)?;
-        Ok(flat)
     }
 
     /// A film buffer read back, a pixel a row of four.

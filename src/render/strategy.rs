@@ -23,8 +23,11 @@
 //!   can double a path's price, and a trial of fixed samples per candidate then cost 6-12% of a
 //!   render on the H200; this one 1-2% of the showcases'.
 //! - Each round spends its budget on more samples rather than on more than about
-//!   [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]): their read-backs and statistics ([`choose`],
-//!   on all cores) cost more than the renders of a fast scene's trial.
+//!   [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]): more pixels add little precision and keep a
+//!   GPU no busier.
+//! - The statistics ([`choose`] over [`TrialSums`]) are computed on the device
+//!   (render/trial.rs): a read-back of the trial's rows and a host pass over them had cost a
+//!   fast scene more than its candidates' renders.
 //!
 //! The render then goes on with the winner from sample 0, or, when the winner rendered the
 //! full round last and on every row, from the samples that round left in the film: either way
@@ -33,7 +36,7 @@
 //! only under-read by chance, not by rule; the common denominator keeps a noisy strategy's
 //! dark pixels from flattering it.
 
-use super::metrics::REL_EPSILON;
+use crate::error::Result as ClptResult;
 use std::fmt;
 
 /// Samples per pixel each candidate renders in the trial: two groups of four, one from each of
@@ -69,8 +72,31 @@ const SCOUT_SHARE: f64 = 0.01;
 
 /// ...but each candidate traces at least this many paths in it (or every row): fewer would
 /// time a GPU's launch latency instead of the candidate (an H200 traces 2^20 of the goblet's
-/// paths in about 20 ms, against its 0.1 ms latency).
+/// paths in about 20 ms, against its 0.1 ms latency), and leave most of its 270,336 resident
+/// work-items idle.
 const MIN_SCOUT_PATHS: f64 = (1 << 20) as f64;
+
+/// The floor on a CPU device ([`min_scout_paths`]): a CPU traces 2^20 paths in about 1 s on
+/// 2 cores (PoCL; 3% of the samples of the BENCHMARKS scenes at 160x120 and 256 samples, where
+/// 1% was the share), and 2^13 in some 8 ms, still far above a launch's 0.1 ms and two groups
+/// of work-items for each of 64 cores.
+const MIN_SCOUT_PATHS_CPU: f64 = (1 << 13) as f64;
+
+/// A full round runs only where it measures each survivor on at least this many times the
+/// scouting round's samples ([`full_round_plan`]): one barely larger repeats the scouts' noise
+/// (its standard errors 10% smaller for 1.2 times the paths) at the price of every survivor's
+/// launches again.
+const FULL_ROUND_GAIN: f64 = 2.0;
+
+/// The least paths a candidate traces in the scouting round on a device of `kind` (an OpenCL
+/// device type as `clpt devices` lists it: "CPU", "GPU", ...).
+pub fn min_scout_paths(kind: &str) -> f64 {
+    if kind == "CPU" {
+        MIN_SCOUT_PATHS_CPU
+    } else {
+        MIN_SCOUT_PATHS
+    }
+}
 
 /// The row sampling of the shortest trials, and of the scouting round: every fourth row.
 const MIN_ROW_STEP: u32 = 4;
@@ -230,8 +256,8 @@ pub fn plan_for_budget(budget: f64, height: u32) -> TrialPlan {
     }
 }
 
-/// The plan of the full round after scouting, or `None` when it would be no larger than the
-/// scouting round (`scouted`): the `survivors` share [`FULL_ROUND_SHARE`] of the time a render
+/// The plan of the full round after scouting, or `None` when it would take less than
+/// [`FULL_ROUND_GAIN`] times the scouting round's (`scouted`) samples: the `survivors` share [`FULL_ROUND_SHARE`] of the time a render
 /// of `spp` samples would take with the fastest-converging of them (by the scouts' timings),
 /// so the round costs the same share however slow the losers are. It spends that on more
 /// samples rather than on more than about [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]).
@@ -249,7 +275,8 @@ pub fn full_round_plan(
         .sum();
     let budget = FULL_ROUND_SHARE * f64::from(spp) * chosen.seconds_per_sample / total;
     let plan = plan_on_rows(budget, row_step_for(width, height, TRIAL_PIXELS), height);
-    (survivors.len() > 1 && budget.is_finite() && plan.cost() > scouted.cost()).then_some(plan)
+    let gain = plan.cost() >= FULL_ROUND_GAIN * scouted.cost();
+    (survivors.len() > 1 && budget.is_finite() && gain).then_some(plan)
 }
 
 /// The pixels past which a trial round takes more samples on fewer rows. The trial's figures
@@ -285,15 +312,20 @@ pub fn plan_on_rows(budget: f64, step: u32, height: u32) -> TrialPlan {
 
 /// The scouting round of a long render's trial for `candidates` on an image of `width` x
 /// `height`: [`TRIAL_SPP`] samples on every fourth row's worth, or less where that would cost
-/// more than [`SCOUT_SHARE`] of a render of `spp` samples, but never fewer than
-/// [`MIN_SCOUT_PATHS`] paths a candidate; spent on more samples rather than on more than about
-/// [`TRIAL_PIXELS`] pixels.
-pub fn scout_plan(candidates: usize, spp: Option<u32>, width: u32, height: u32) -> TrialPlan {
+/// more than [`SCOUT_SHARE`] of a render of `spp` samples, but never fewer than `min_paths`
+/// paths a candidate ([`min_scout_paths`]); spent on more samples rather than on more than
+/// about [`TRIAL_PIXELS`] pixels.
+pub fn scout_plan(
+    candidates: usize,
+    spp: Option<u32>,
+    (width, height): (u32, u32),
+    min_paths: f64,
+) -> TrialPlan {
     let widest = f64::from(TRIAL_SPP) / f64::from(MIN_ROW_STEP);
     let pixels = f64::from(width) * f64::from(height);
     let budget = spp.map_or(widest, |n| {
         (SCOUT_SHARE * f64::from(n) / candidates.max(1) as f64)
-            .max(MIN_SCOUT_PATHS / pixels.max(1.0))
+            .max(min_paths / pixels.max(1.0))
             .min(widest)
     });
     plan_on_rows(budget, row_step_for(width, height, TRIAL_PIXELS), height)
@@ -445,110 +477,52 @@ impl Choice {
     }
 }
 
-/// One candidate's trial film: per trial pixel, the sum of its samples and the sum of those of
-/// its odd group of four (kernels/pathtracer.cl, `render_pass`), as the film holds them (red,
-/// green, blue and a fourth value the trial does not read).
-pub struct TrialFilm {
-    pub sum: Vec<[f32; 4]>,
-    pub sum_odd: Vec<[f32; 4]>,
+/// One trial round's films as [`choose`] reads them: sums over the round's trial pixels, per
+/// candidate, in the order the candidates rendered. The renderer computes them on the device
+/// (render/trial.rs, kernels/trial.h), where a read-back of the films had cost a fast scene
+/// more than its trial's renders; tests/common/trial.rs holds the same formulas on the host in
+/// f64, the oracle.
+///
+/// A pixel's variance is measured from the sums of its n samples and of its odd groups of four
+/// (n/2 of them): the two halves are independent and alike, so the difference of their means
+/// squared, times n/4, is an unbiased estimate of n times the variance of the pixel's mean (the
+/// "stratified variance": the variance per sample of the render's estimate, which the plain
+/// sample variance would overstate by the spread the quasi-random samples integrate away).
+pub trait TrialSums {
+    /// Per film: the sum over trial pixels and channels of the pixel's mean, and of that mean's
+    /// variance (the stratified variance over n).
+    fn totals(&mut self) -> ClptResult<Vec<(f64, f64)>>;
+    /// Per film: the sum over trial pixels of the pixel's relative variance of one sample (the
+    /// channels' mean of the stratified variance over d² +
+    /// [`REL_EPSILON`](super::metrics::REL_EPSILON), d the films' sums
+    /// weighted by `weights`) and of its square.
+    fn terms(&mut self, weights: &[f64]) -> ClptResult<Vec<(f64, f64)>>;
+}
+
+/// What a trial round measured besides its sums.
+#[derive(Clone, Debug)]
+pub struct Round {
+    /// The candidates, in the order they rendered.
+    pub strategies: Vec<Strategy>,
+    /// Each candidate's seconds in launches.
+    pub seconds: Vec<f64>,
+    /// Samples per pixel each rendered.
     pub samples: u32,
-    pub seconds: f64,
+    /// The trial pixels each rendered.
+    pub pixels: usize,
 }
 
 /// How many standard errors a candidate's image mean may fall below the reference's before
 /// its trial is taken to have missed rare paths.
 const MISSED_SIGMAS: f64 = 3.0;
 
-/// An unbiased estimate of n times the variance of the mean of n samples (the variance "per
-/// sample" of the render's estimate), in one pixel and channel, from the sums of its n samples
-/// and of those of the odd groups of four (n/2 of them): the two halves are independent and
-/// alike, each half's mean has variance σ² / (n/2), so their difference squared has
-/// expectation 4σ² / n.
-fn stratified_variance(sum: f32, sum_odd: f32, n: f64) -> f64 {
-    let half = n / 2.0;
-    let difference = (f64::from(sum) - 2.0 * f64::from(sum_odd)) / half;
-    difference * difference * n / 4.0
-}
-
-/// Pixels a unit of the trial's statistics covers: the units are summed in order, so the
-/// figures do not depend on how many threads computed them.
-const CHUNK: usize = 1 << 14;
-
-/// `f` of every [`CHUNK`] of `0..n`, in order, computed on as many threads as the machine
-/// offers (or here, where a thread cannot start). On the H200 machine one thread took 47 ms
-/// over the 786,432 pixels of two candidates: a third of smallpt's trial.
-fn by_chunks<T: Send>(n: usize, f: impl Fn(std::ops::Range<usize>) -> T + Sync) -> Vec<T> {
-    let chunks = n.div_ceil(CHUNK);
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |t| t.get())
-        .min(chunks);
-    let work = |first: usize| -> Vec<(usize, T)> {
-        (first..chunks)
-            .step_by(threads.max(1))
-            .map(|c| (c, f(c * CHUNK..((c + 1) * CHUNK).min(n))))
-            .collect()
-    };
-    let mut done: Vec<(usize, T)> = std::thread::scope(|scope| {
-        let helpers: Vec<_> = (1..threads)
-            .map(|t| {
-                (
-                    t,
-                    std::thread::Builder::new().spawn_scoped(scope, move || work(t)),
-                )
-            })
-            .collect();
-        let mut done = work(0);
-        for (t, helper) in helpers {
-            match helper.map(|h| h.join()) {
-                Ok(Ok(part)) => done.extend(part),
-                Ok(Err(panic)) => std::panic::resume_unwind(panic),
-                Err(_) => done.extend(work(t)),
-            }
-        }
-        done
-    });
-    done.sort_unstable_by_key(|&(c, _)| c);
-    done.into_iter().map(|(_, t)| t).collect()
-}
-
-/// The image mean of each trial film (summed over pixels and channels) and its standard error.
-fn total_means(films: &[TrialFilm], n_pixels: usize) -> Vec<(f64, f64)> {
-    let parts = by_chunks(n_pixels, |range| {
-        films
-            .iter()
-            .map(|film| {
-                let n = f64::from(film.samples);
-                let (mut mean, mut var) = (0.0, 0.0);
-                for (s, o) in film.sum[range.clone()]
-                    .iter()
-                    .zip(&film.sum_odd[range.clone()])
-                {
-                    for c in 0..3 {
-                        mean += f64::from(s[c]) / n;
-                        var += stratified_variance(s[c], o[c], n) / n;
-                    }
-                }
-                (mean, var)
-            })
-            .collect::<Vec<_>>()
-    });
-    (0..films.len())
-        .map(|k| {
-            let (mean, var) = parts
-                .iter()
-                .fold((0.0, 0.0), |(m, v), part| (m + part[k].0, v + part[k].1));
-            (mean, var.sqrt())
-        })
-        .collect()
-}
-
-/// Each film's weight in the relative variance's denominator (mean² + ε of every trial pixel
-/// and channel, [`relative_variances`]): the trusted candidates' films weighted by the
-/// precision of their image means, summing to 1, and divided by their sample counts. Pooling
+/// Each film's weight in the relative variance's denominator ([`TrialSums::terms`]): the
+/// trusted candidates' films weighted by the precision of their image means (`totals`: each
+/// film's mean and its standard error), summing to 1, and divided by the sample count. Pooling
 /// lessens the noise of a few samples per pixel; the weights keep a noisy candidate's rare
 /// bright sample from raising its own pixel's denominator and hiding its variance, and one
 /// that missed rare paths from pulling the denominator down.
-fn denominator_weights(films: &[TrialFilm], totals: &[(f64, f64)], missed: &[bool]) -> Vec<f64> {
+fn denominator_weights(totals: &[(f64, f64)], missed: &[bool], samples: u32) -> Vec<f64> {
     let weights: Vec<f64> = totals
         .iter()
         .zip(missed)
@@ -563,57 +537,22 @@ fn denominator_weights(films: &[TrialFilm], totals: &[(f64, f64)], missed: &[boo
         })
         .collect();
     let total_weight: f64 = weights.iter().sum();
-    films
+    weights
         .iter()
-        .zip(&weights)
-        .map(|(film, &w)| {
+        .map(|&w| {
             let share = if total_weight > 0.0 {
                 w / total_weight
             } else {
-                1.0 / films.len() as f64
+                1.0 / totals.len() as f64
             };
-            share / f64::from(film.samples)
+            share / f64::from(samples)
         })
         .collect()
 }
 
-/// Per film, the sum over trial pixels of each pixel's relative variance of one sample (its
-/// channels' mean) and of its square.
-fn relative_variances(films: &[TrialFilm], weights: &[f64], n_pixels: usize) -> Vec<(f64, f64)> {
-    let parts = by_chunks(n_pixels, |range| {
-        let mut sums = vec![(0.0f64, 0.0f64); films.len()];
-        for p in range {
-            let mut denominator = [0.0f64; 3];
-            for (film, &w) in films.iter().zip(weights) {
-                for (d, &v) in denominator.iter_mut().zip(&film.sum[p][..3]) {
-                    *d += w * f64::from(v);
-                }
-            }
-            let denominator = denominator.map(|m| m * m + f64::from(REL_EPSILON));
-            for (film, sum) in films.iter().zip(&mut sums) {
-                let n = f64::from(film.samples);
-                let (s, o) = (film.sum[p], film.sum_odd[p]);
-                let term = (0..3)
-                    .map(|c| stratified_variance(s[c], o[c], n) / denominator[c])
-                    .sum::<f64>()
-                    / 3.0;
-                sum.0 += term;
-                sum.1 += term * term;
-            }
-        }
-        sums
-    });
-    (0..films.len())
-        .map(|k| {
-            parts
-                .iter()
-                .fold((0.0, 0.0), |(a, b), part| (a + part[k].0, b + part[k].1))
-        })
-        .collect()
-}
-
-/// Measures every candidate and picks the one of least relMSE × seconds among those whose
-/// trial can be trusted (the first among equals, and when none could be measured).
+/// Measures every candidate of a `round` and picks the one of least relMSE × seconds among
+/// those whose trial can be trusted (the first among equals, and when none could be measured),
+/// for a render of `pixels` pixels; `trial_seconds` is the trial's time so far.
 ///
 /// Two guards against rare paths, whose samples are few but carry most of the variance (pure
 /// path tracing of a small light, caustics):
@@ -624,13 +563,16 @@ fn relative_variances(films: &[TrialFilm], weights: &[f64], n_pixels: usize) -> 
 ///   most precise one's has, by the two being unbiased estimates of the same image, missed
 ///   rare bright paths, and its variance reads low: it is not chosen.
 pub fn choose(
-    strategies: &[Strategy],
-    films: &[TrialFilm],
+    round: &Round,
+    sums: &mut dyn TrialSums,
     pixels: f64,
     trial_seconds: f64,
-) -> Choice {
-    let n_pixels = films.first().map_or(0, |f| f.sum.len());
-    let totals = total_means(films, n_pixels);
+) -> ClptResult<Choice> {
+    let totals: Vec<(f64, f64)> = sums
+        .totals()?
+        .into_iter()
+        .map(|(mean, var)| (mean, var.sqrt()))
+        .collect();
     let mut reference = 0;
     for (i, &(mean, se)) in totals.iter().enumerate() {
         let (best_mean, best_se) = totals[reference];
@@ -644,19 +586,20 @@ pub fn choose(
         .iter()
         .map(|&(mean, se)| mean < ref_mean - MISSED_SIGMAS * se.hypot(ref_se))
         .collect();
-    let weights = denominator_weights(films, &totals, &missed);
-    let sums = relative_variances(films, &weights, n_pixels);
-    let np = n_pixels.max(1) as f64;
-    let measured: Vec<Measured> = strategies
+    let weights = denominator_weights(&totals, &missed, round.samples);
+    let terms = sums.terms(&weights)?;
+    let np = round.pixels.max(1) as f64;
+    let measured: Vec<Measured> = round
+        .strategies
         .iter()
-        .zip(films)
-        .zip(sums)
+        .zip(&round.seconds)
+        .zip(terms)
         .enumerate()
-        .map(|(i, ((&strategy, film), (rel, rel_sq)))| {
+        .map(|(i, ((&strategy, &seconds), (rel, rel_sq)))| {
             let mean = rel / np;
             Measured {
                 strategy,
-                seconds_per_sample: film.seconds / (f64::from(film.samples) * np),
+                seconds_per_sample: seconds / (f64::from(round.samples) * np),
                 relative_variance: mean,
                 relative_variance_se: ((rel_sq / np - mean * mean).max(0.0) / np).sqrt(),
                 missed_rare_paths: missed[i],
@@ -677,13 +620,13 @@ pub fn choose(
             chosen = i;
         }
     }
-    Choice {
+    Ok(Choice {
         measured,
         chosen,
         seconds: trial_seconds,
         pixels,
         film_samples: 0,
-    }
+    })
 }
 
 impl fmt::Display for Choice {
@@ -761,53 +704,6 @@ mod tests {
         assert_eq!(plan(Some(1), 5), (5, 8));
     }
 
-    /// A trial film of `pixels` pixels whose two groups of four sum to `even` and `odd` in
-    /// every channel.
-    fn film(pixels: usize, even: f32, odd: f32, seconds: f64) -> TrialFilm {
-        TrialFilm {
-            sum: vec![[even + odd; 4]; pixels],
-            sum_odd: vec![[odd; 4]; pixels],
-            samples: TRIAL_SPP,
-            seconds,
-        }
-    }
-
-    #[test]
-    fn the_least_variance_times_time_wins() {
-        let s = [strategy(true, 1.0), strategy(false, 1.0)];
-        // Mean 1 in both; the first has 4 times the second's variance and half its time.
-        let (a, b) = (film(100, 6.0, 2.0, 1.0), film(100, 5.0, 3.0, 2.0));
-        let choice = choose(&s, &[a, b], 100.0, 3.0);
-        let m = &choice.measured;
-        assert!((m[0].relative_variance / m[1].relative_variance - 4.0).abs() < 1e-9);
-        assert_eq!(choice.chosen, 1, "{:?}", choice);
-        // Four times as fast turns it round.
-        let (a, b) = (film(100, 6.0, 2.0, 0.4), film(100, 5.0, 3.0, 2.0));
-        assert_eq!(choose(&s, &[a, b], 100.0, 3.0).chosen, 0);
-        // Equal figures (a black picture): the first.
-        let (a, b) = (film(100, 0.0, 0.0, 1.0), film(100, 0.0, 0.0, 1.0));
-        assert_eq!(choose(&s, &[a, b], 100.0, 3.0).chosen, 0);
-    }
-
-    #[test]
-    fn a_candidate_whose_mean_fell_short_missed_rare_paths_and_is_not_chosen() {
-        let s = [strategy(true, 1.0), strategy(false, 1.0)];
-        // Pixel means 1 with a little noise, against means of 0.5 with less noise: by the two
-        // being unbiased estimates of one image, the second missed its rare bright samples.
-        let precise: Vec<[f32; 4]> = (0..400).map(|i| [4.0 + (i % 3) as f32 * 0.1; 4]).collect();
-        let a = TrialFilm {
-            sum: precise.iter().map(|p| p.map(|v| v * 2.0)).collect(),
-            sum_odd: precise.clone(),
-            samples: TRIAL_SPP,
-            seconds: 10.0,
-        };
-        let b = film(400, 2.0, 2.0, 0.1);
-        let choice = choose(&s, &[a, b], 400.0, 1.0);
-        assert!(choice.measured[1].missed_rare_paths, "{choice:?}");
-        assert!(!choice.measured[0].missed_rare_paths);
-        assert_eq!(choice.chosen, 0);
-    }
-
     fn measured(light_sampling: bool, seconds: f64, variance: f64, se: f64) -> Measured {
         Measured {
             strategy: strategy(light_sampling, 1.0),
@@ -838,7 +734,7 @@ mod tests {
         // The full round: 0.75% of a 4000-sample render at the best's speed, shared by three
         // candidates of equal speed: 10 samples' worth each; on every 2nd row of 640x480 (2^18
         // pixels at most), 16 samples.
-        let scouted = scout_plan(4, Some(4000), 640, 480);
+        let scouted = scout_plan(4, Some(4000), (640, 480), MIN_SCOUT_PATHS);
         assert_eq!((scouted.row_step, scouted.samples), (4, 8));
         let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (640, 480)).unwrap();
         assert_eq!((plan.row_step, plan.samples), (2, 16));
@@ -852,6 +748,12 @@ mod tests {
         );
         assert_eq!(
             full_round_plan(&scout, scouted, &[2], 4000, (640, 480)),
+            None
+        );
+        // Nor one that would take less than twice the scouts' samples: at 1200 samples 3
+        // samples' worth each, 8 samples on every third row (2.7 against the scouts' 2).
+        assert_eq!(
+            full_round_plan(&scout, scouted, &[1, 3, 2], 1200, (640, 480)),
             None
         );
         // Merged: the full round's figures for the survivors, the scouts' for the dropped.
@@ -895,7 +797,7 @@ mod tests {
     #[test]
     fn scouting_takes_a_share_of_short_renders_but_enough_paths() {
         let plan = |spp, width, height| {
-            let p = scout_plan(4, spp, width, height);
+            let p = scout_plan(4, spp, (width, height), MIN_SCOUT_PATHS);
             (p.row_step, p.samples)
         };
         // 256 samples, four candidates: 1% is 0.64 samples' worth each: 8 samples on every
@@ -911,5 +813,15 @@ mod tests {
         assert_eq!(plan(None, 2560, 1440), (15, 24));
         assert_eq!(plan(Some(100_000), 1024, 768), (4, 8));
         assert_eq!(plan(Some(100_000), 320, 240), (4, 8));
+        // A CPU's floor is 2^13 paths: 1% of 256 samples at 160x120 (every 13th row, where a
+        // GPU's floor takes every 4th), 0.57 samples' worth at 64 on 160x90, not 0.16.
+        let cpu = |spp, width, height| {
+            let p = scout_plan(4, spp, (width, height), min_scout_paths("CPU"));
+            (p.row_step, p.samples)
+        };
+        assert_eq!(plan(Some(256), 160, 120), (4, 8));
+        assert_eq!(cpu(Some(256), 160, 120), (13, 8));
+        assert_eq!(cpu(Some(64), 160, 90), (15, 8));
+        assert_eq!(min_scout_paths("GPU"), MIN_SCOUT_PATHS);
     }
 }

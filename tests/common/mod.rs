@@ -33,6 +33,7 @@ pub fn device() -> clpt::device::Device {
 
 pub mod chi2;
 pub mod reference;
+pub mod trial;
 
 use clpt::device::Device;
 use clpt::device::program::{self, KernelSources};

@@ -1,0 +1,111 @@
+/* trial.cl: the strategy trial's statistics (render/strategy.rs, `choose`), on the device.
+ *
+ * Reads: the film's `sum` and `sum_odd` on a round's trial rows, after each candidate rendered
+ * them (trial_keep), then every candidate's kept rows at once. Writes: per candidate its rows
+ * into `kept` (trial_keep), and per chunk of TRIAL_CHUNK kept pixels and candidate two sums
+ * (trial_totals, trial_terms), which the host adds up in f64, chunk by chunk in order.
+ *
+ * Why on the device: a trial read back to the host cost a fast scene 2 to 3 ms a candidate
+ * (its rows, 4 MiB of sums, and the host's pass over them) where the candidate rendered in 1
+ * ms on the H200: case2's render takes 0.14 s, and 5% of it is 7 ms for the whole trial. Here
+ * only a few kilobytes come back. A program of its own (render/trial.rs builds it beside the
+ * render's), as it reads no scene.
+ *
+ * Precision: a work-item adds TRIAL_CHUNK / TRIAL_GROUP pixels in order and the group adds its
+ * items as a tree, so a chunk's float sums carry a relative error of about 22 roundings
+ * (sequential 16, tree 6) whatever the image size; tests/trial.rs holds them against the host's
+ * f64 formulas (tests/common/trial.rs) on random and adversarial films.
+ */
+/* TRIAL_GROUP (the work-items of a group of trial_totals and trial_terms, a power of two) and
+ * TRIAL_CHUNK (the pixels a group sums) come from the host's build options (render/trial.rs),
+ * which sizes the launches and the partial sums by them. */
+
+/* Copies the trial rows (row_start + r * row_step, r < row_count) of the film's two sums into
+ * candidate `slot`'s part of `kept`: its sums, then its odd groups' sums, `width * row_count`
+ * pixels each. One work-item a pixel. */
+__kernel void trial_keep(__global const float4* sum, __global const float4* sum_odd, uint width,
+                         uint row_start, uint row_step, uint row_count, uint slot,
+                         __global float4* kept) {
+    const uint x = get_global_id(0), r = get_global_id(1);
+    if (x >= width || r >= row_count) return;
+    const uint pixels = width * row_count;
+    const uint from = (row_start + r * row_step) * width + x;
+    const uint to = r * width + x;
+    kept[2u * slot * pixels + to] = sum[from];
+    kept[(2u * slot + 1u) * pixels + to] = sum_odd[from];
+}
+
+/* n times the variance of the mean of n samples, from the sum of the n samples and that of
+ * the odd groups of four (n / 2 of them): the halves are independent and alike, each half's
+ * mean has variance s^2 / (n/2), so their difference squared has expectation 4 s^2 / n. */
+static inline float3 trial_stratified_variance(float3 sum, float3 sum_odd, float n) {
+    const float3 difference = (sum - 2.0f * sum_odd) / (0.5f * n);
+    return difference * difference * (0.25f * n);
+}
+
+/* The sum of every work-item's `v` over its group (TRIAL_GROUP items), for every item. */
+static float2 trial_group_sum(float2 v, __local float2* scratch) {
+    const uint l = get_local_id(0);
+    scratch[l] = v;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (uint stride = TRIAL_GROUP / 2u; stride > 0u; stride >>= 1) {
+        if (l < stride) scratch[l] += scratch[l + stride];
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    const float2 total = scratch[0];
+    barrier(CLK_LOCAL_MEM_FENCE); /* before the next call writes scratch again */
+    return total;
+}
+
+/* Per chunk of `pixels` kept pixels and candidate k of `films`, each of `samples` samples a
+ * pixel: out[chunk * films + k] = (sum over the chunk's pixels and channels of the pixel's
+ * mean, and of its mean's variance: the stratified variance over n). */
+__kernel __attribute__((reqd_work_group_size(TRIAL_GROUP, 1, 1))) void trial_totals(
+    __global const float4* kept, uint pixels, uint films, uint samples, __global float2* out) {
+    __local float2 scratch[TRIAL_GROUP];
+    const uint chunk = get_group_id(0), l = get_local_id(0);
+    const uint first = chunk * TRIAL_CHUNK;
+    const uint end = min(first + TRIAL_CHUNK, pixels);
+    const float n = (float)samples;
+    for (uint k = 0u; k < films; ++k) {
+        __global const float4* sum = kept + 2u * k * pixels;
+        __global const float4* odd = sum + pixels;
+        float2 acc = (float2)(0.0f);
+        for (uint p = first + l; p < end; p += TRIAL_GROUP) {
+            const float3 s = sum[p].xyz, o = odd[p].xyz;
+            const float3 var = trial_stratified_variance(s, o, n) / n;
+            acc += (float2)(s.x + s.y + s.z, var.x + var.y + var.z) / (float2)(n, 1.0f);
+        }
+        const float2 total = trial_group_sum(acc, scratch);
+        if (l == 0u) out[chunk * films + k] = total;
+    }
+}
+
+/* Per chunk and candidate k: out[chunk * films + k] = (sum over the chunk's pixels of the
+ * pixel's relative variance of one sample, and of its square). The relative variance is the
+ * channels' mean of the stratified variance over the common denominator d^2 + eps, d the
+ * candidates' sums weighted by `weights` (render/strategy.rs, `denominator_weights`). */
+__kernel __attribute__((reqd_work_group_size(TRIAL_GROUP, 1, 1))) void trial_terms(
+    __global const float4* kept, uint pixels, uint films, uint samples,
+    __global const float* weights, float eps, __global float2* out) {
+    __local float2 scratch[TRIAL_GROUP];
+    const uint chunk = get_group_id(0), l = get_local_id(0);
+    const uint first = chunk * TRIAL_CHUNK;
+    const uint end = min(first + TRIAL_CHUNK, pixels);
+    const float n = (float)samples;
+    for (uint k = 0u; k < films; ++k) {
+        __global const float4* sum = kept + 2u * k * pixels;
+        __global const float4* odd = sum + pixels;
+        float2 acc = (float2)(0.0f);
+        for (uint p = first + l; p < end; p += TRIAL_GROUP) {
+            float3 d = (float3)(0.0f);
+            for (uint j = 0u; j < films; ++j) d += weights[j] * kept[2u * j * pixels + p].xyz;
+            const float3 var = trial_stratified_variance(sum[p].xyz, odd[p].xyz, n);
+            const float3 rel = var / (d * d + eps);
+            const float term = (rel.x + rel.y + rel.z) / 3.0f;
+            acc += (float2)(term, term * term);
+        }
+        const float2 total = trial_group_sum(acc, scratch);
+        if (l == 0u) out[chunk * films + k] = total;
+    }
+}

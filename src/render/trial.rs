@@ -1,0 +1,221 @@
+//! The strategy trial's statistics on the device (kernels/trial.cl): after each candidate of a
+//! round renders, its trial rows of the film are copied into a round buffer on the device;
+//! then two reductions give [`choose`](super::strategy::choose) its sums ([`TrialSums`]), a few kilobytes
+//! read back where the rows themselves (4 MiB a candidate on 2^18 pixels) and the host's pass
+//! over them had cost a fast scene more than the trial's renders.
+
+use super::Rows;
+use super::strategy::TrialSums;
+use crate::device::Device;
+use crate::device::program::{self, BuiltProgram, KernelSources};
+use crate::error::{Error, Result};
+use std::path::Path;
+
+/// Work-items of a reduction group (a power of two).
+const GROUP: u32 = 64;
+
+/// Trial pixels a reduction group sums: each work-item adds 16 in order, the group the 64
+/// partial sums as a tree, so a chunk's float sums carry about 22 roundings however large the
+/// image (kernels/trial.cl); the host adds the chunks in f64.
+const CHUNK: u32 = 1024;
+
+/// The trial's program and kernels, bound to one film's `sum` and `sum_odd` buffers.
+pub struct TrialKernels {
+    program: BuiltProgram,
+    keep: ocl::Kernel,
+    totals: ocl::Kernel,
+    terms: ocl::Kernel,
+    queue: ocl::Queue,
+    width: u32,
+}
+
+fn fail(what: &'static str) -> impl Fn(ocl::Error) -> Error {
+    move |e| Error::opencl(what, e)
+}
+
+impl TrialKernels {
+    /// Builds kernels/trial.cl (through the program cache at `cache`) for a film `width`
+    /// pixels wide held in `sum` and `sum_odd` (float4 a pixel).
+    pub fn new(
+        device: &Device,
+        sources: &KernelSources,
+        cache: Option<&Path>,
+        sum: &ocl::Buffer<f32>,
+        sum_odd: &ocl::Buffer<f32>,
+        width: u32,
+    ) -> Result<Self> {
+        let defines = [
+            ("TRIAL_GROUP", format!("{GROUP}u")),
+            ("TRIAL_CHUNK", format!("{CHUNK}u")),
+        ];
+        let program = program::build_entry(device, sources, "trial.cl", &defines, cache)?;
+        let queue = device.queue.clone();
+        let bad = fail("creating the trial's kernels");
+        let placeholder = None::<&ocl::Buffer<f32>>;
+        let keep = ocl::Kernel::builder()
+            .program(&program.program)
+            .name("trial_keep")
+            .queue(queue.clone())
+            .arg(sum)
+            .arg(sum_odd)
+            .arg(width)
+            .arg_named("row_start", 0u32)
+            .arg_named("row_step", 1u32)
+            .arg_named("row_count", 0u32)
+            .arg_named("slot", 0u32)
+            .arg_named("kept", placeholder)
+            .build()
+            .map_err(&bad)?;
+        let reduction = |name: &'static str, terms: bool| {
+            let mut builder = ocl::Kernel::builder();
+            builder
+                .program(&program.program)
+                .name(name)
+                .queue(queue.clone())
+                .arg_named("kept", placeholder)
+                .arg_named("pixels", 0u32)
+                .arg_named("films", 0u32)
+                .arg_named("samples", 0u32);
+            if terms {
+                builder
+                    .arg_named("weights", placeholder)
+                    .arg(super::metrics::REL_EPSILON);
+            }
+            builder.arg_named("out", placeholder).build().map_err(&bad)
+        };
+        let totals = reduction("trial_totals", false)?;
+        let terms = reduction("trial_terms", true)?;
+        Ok(TrialKernels {
+            program,
+            keep,
+            totals,
+            terms,
+            queue,
+            width,
+        })
+    }
+
+    /// The built trial program (for `-v`).
+    pub fn program(&self) -> &BuiltProgram {
+        &self.program
+    }
+
+    /// A round of `films` candidates of `samples` samples a pixel on `rows`: room on the
+    /// device for every candidate's rows.
+    pub fn round(&self, rows: Rows, films: usize, samples: u32) -> Result<KeptRound<'_>> {
+        let pixels = self.width as usize * rows.count as usize;
+        let chunks = pixels.div_ceil(CHUNK as usize);
+        let bad = fail("allocating the trial's buffers");
+        let buffer = |len: usize| {
+            ocl::Buffer::<f32>::builder()
+                .queue(self.queue.clone())
+                .len(len.max(1))
+                .build()
+                .map_err(&bad)
+        };
+        Ok(KeptRound {
+            kernels: self,
+            rows,
+            films,
+            samples,
+            pixels,
+            chunks,
+            kept: buffer(films * 2 * pixels * 4)?,
+            out: buffer(chunks * films * 2)?,
+            weights: buffer(films)?,
+        })
+    }
+}
+
+/// One round's kept films on the device.
+pub struct KeptRound<'k> {
+    kernels: &'k TrialKernels,
+    rows: Rows,
+    films: usize,
+    samples: u32,
+    pixels: usize,
+    chunks: usize,
+    kept: ocl::Buffer<f32>,
+    out: ocl::Buffer<f32>,
+    weights: ocl::Buffer<f32>,
+}
+
+impl KeptRound<'_> {
+    /// Trial pixels a candidate rendered.
+    pub fn pixels(&self) -> usize {
+        self.pixels
+    }
+
+    /// Copies the film's trial rows into candidate `slot`'s place (enqueued: the next
+    /// command on the queue sees them).
+    pub fn keep(&mut self, slot: usize) -> Result<()> {
+        assert!(slot < self.films, "slot {slot} of {} films", self.films);
+        let k = &self.kernels.keep;
+        let bad = fail("keeping the trial's rows");
+        k.set_arg("row_start", self.rows.start).map_err(&bad)?;
+        k.set_arg("row_step", self.rows.step).map_err(&bad)?;
+        k.set_arg("row_count", self.rows.count).map_err(&bad)?;
+        k.set_arg("slot", slot as u32).map_err(&bad)?;
+        k.set_arg("kept", &self.kept).map_err(&bad)?;
+        let round_up = |n: u32| n.div_ceil(8) as usize * 8;
+        // SAFETY: the film holds every row of `rows` (the renderer's trial rows lie in the
+        // image); `kept` holds `films` slots of the rows; the kernel skips padded work-items.
+        unsafe {
+            k.cmd()
+                .global_work_size([round_up(self.kernels.width), round_up(self.rows.count)])
+                .local_work_size([8, 8])
+                .enq()
+        }
+        .map_err(&bad)
+    }
+
+    /// Runs a reduction and adds its chunks' sums in f64, in order: per film, two sums.
+    fn reduce(&self, kernel: &ocl::Kernel) -> Result<Vec<(f64, f64)>> {
+        let bad = fail("reducing the trial's rows");
+        kernel.set_arg("kept", &self.kept).map_err(&bad)?;
+        kernel.set_arg("pixels", self.pixels as u32).map_err(&bad)?;
+        kernel.set_arg("films", self.films as u32).map_err(&bad)?;
+        kernel.set_arg("samples", self.samples).map_err(&bad)?;
+        kernel.set_arg("out", &self.out).map_err(&bad)?;
+        let mut sums = vec![(0.0, 0.0); self.films];
+        if self.chunks == 0 {
+            return Ok(sums);
+        }
+        // SAFETY: `kept` holds `films` slots of `pixels` pixels (two float4 each), `out` two
+        // floats per chunk and film, `weights` one per film; one group a chunk.
+        unsafe {
+            kernel
+                .cmd()
+                .global_work_size(self.chunks * GROUP as usize)
+                .local_work_size(GROUP as usize)
+                .enq()
+        }
+        .map_err(&bad)?;
+        let mut out = vec![0.0f32; self.chunks * self.films * 2];
+        self.out.read(&mut out).enq().map_err(&bad)?;
+        for chunk in out.chunks_exact(self.films * 2) {
+            for (sum, pair) in sums.iter_mut().zip(chunk.chunks_exact(2)) {
+                sum.0 += f64::from(pair[0]);
+                sum.1 += f64::from(pair[1]);
+            }
+        }
+        Ok(sums)
+    }
+}
+
+impl TrialSums for KeptRound<'_> {
+    fn totals(&mut self) -> Result<Vec<(f64, f64)>> {
+        self.reduce(&self.kernels.totals)
+    }
+
+    fn terms(&mut self, weights: &[f64]) -> Result<Vec<(f64, f64)>> {
+        let bad = fail("writing the trial's weights");
+        let weights: Vec<f32> = weights.iter().map(|&w| w as f32).collect();
+        self.weights.write(&weights).enq().map_err(&bad)?;
+        self.kernels
+            .terms
+            .set_arg("weights", &self.weights)
+            .map_err(&bad)?;
+        self.reduce(&self.kernels.terms)
+    }
+}

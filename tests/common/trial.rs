@@ -1,0 +1,73 @@
+//! The strategy trial's statistics on the host in f64 (the formulas of kernels/trial.cl and
+//! `clpt::render::strategy::TrialSums`): the oracle the device's sums are held against.
+
+use clpt::render::metrics::REL_EPSILON;
+use clpt::render::strategy::TrialSums;
+
+/// One candidate's trial film: per trial pixel, the sum of its samples and the sum of those of
+/// its odd groups of four (red, green, blue and a fourth value the trial does not read).
+#[derive(Clone, Debug)]
+pub struct HostFilm {
+    pub sum: Vec<[f32; 4]>,
+    pub sum_odd: Vec<[f32; 4]>,
+}
+
+/// A round's films, all of `samples` samples a pixel.
+pub struct HostRound {
+    pub films: Vec<HostFilm>,
+    pub samples: u32,
+}
+
+/// n times the variance of the mean of n samples, from the sum of the n samples and of those
+/// of the odd groups of four: each half's mean has variance σ² / (n/2), so their difference
+/// squared has expectation 4σ² / n.
+pub fn stratified_variance(sum: f32, sum_odd: f32, n: f64) -> f64 {
+    let half = n / 2.0;
+    let difference = (f64::from(sum) - 2.0 * f64::from(sum_odd)) / half;
+    difference * difference * n / 4.0
+}
+
+impl TrialSums for HostRound {
+    fn totals(&mut self) -> clpt::error::Result<Vec<(f64, f64)>> {
+        let n = f64::from(self.samples);
+        Ok(self
+            .films
+            .iter()
+            .map(|film| {
+                let (mut mean, mut var) = (0.0, 0.0);
+                for (s, o) in film.sum.iter().zip(&film.sum_odd) {
+                    for c in 0..3 {
+                        mean += f64::from(s[c]) / n;
+                        var += stratified_variance(s[c], o[c], n) / n;
+                    }
+                }
+                (mean, var)
+            })
+            .collect())
+    }
+
+    fn terms(&mut self, weights: &[f64]) -> clpt::error::Result<Vec<(f64, f64)>> {
+        let n = f64::from(self.samples);
+        let pixels = self.films.first().map_or(0, |f| f.sum.len());
+        let mut sums = vec![(0.0f64, 0.0f64); self.films.len()];
+        for p in 0..pixels {
+            let mut denominator = [0.0f64; 3];
+            for (film, &w) in self.films.iter().zip(weights) {
+                for (d, &v) in denominator.iter_mut().zip(&film.sum[p][..3]) {
+                    *d += w * f64::from(v);
+                }
+            }
+            let denominator = denominator.map(|m| m * m + f64::from(REL_EPSILON));
+            for (film, sum) in self.films.iter().zip(&mut sums) {
+                let (s, o) = (film.sum[p], film.sum_odd[p]);
+                let term = (0..3)
+                    .map(|c| stratified_variance(s[c], o[c], n) / denominator[c])
+                    .sum::<f64>()
+                    / 3.0;
+                sum.0 += term;
+                sum.1 += term * term;
+            }
+        }
+        Ok(sums)
+    }
+}

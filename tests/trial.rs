@@ -1,0 +1,283 @@
+//! The strategy trial's statistics on the device (kernels/trial.cl, `clpt::render::trial`)
+//! against the host's f64 formulas (tests/common/trial.rs), on random films and on adversarial
+//! pixels (black, without variance, fireflies, tiny and huge values), several chunks with a
+//! partial last one, rows thinned out and rows that end at the image's top; and `choose` on
+//! either source reads the same: the least relMSE × seconds wins, a candidate that missed
+//! rare paths is not chosen.
+
+mod common;
+
+use clpt::device::Device;
+use clpt::device::program::KernelSources;
+use clpt::render::Rows;
+use clpt::render::strategy::{self, Choice, Round, Strategy, TRIAL_SPP, TrialSums};
+use clpt::render::trial::TrialKernels;
+use common::trial::{HostFilm, HostRound};
+use rand::rngs::SmallRng;
+use rand::{RngExt, SeedableRng};
+
+/// The device's float sums hold about 22 roundings of f32 per chunk (kernels/trial.cl) and
+/// every summand is positive, so they keep that relative error: 22 × 2^-24 ≈ 1.3e-6. Allowed
+/// eight times that.
+const RELATIVE: f64 = 1e-5;
+
+/// Renders nothing: puts each of `films` (the pixels of `rows`, row by row) into a film of
+/// `width` x `height` whose other pixels are NaN, keeps it as a trial round's candidate on
+/// the device, and hands the round to `f`.
+fn on_device<T>(
+    device: &Device,
+    films: &[HostFilm],
+    samples: u32,
+    (width, height): (u32, u32),
+    rows: Rows,
+    f: impl FnOnce(&mut dyn TrialSums) -> T,
+) -> T {
+    let len = (width * height) as usize * 4;
+    let buffer = || {
+        ocl::Buffer::<f32>::builder()
+            .queue(device.queue.clone())
+            .len(len)
+            .build()
+            .unwrap()
+    };
+    let (sum, sum_odd) = (buffer(), buffer());
+    let kernels = TrialKernels::new(
+        device,
+        &KernelSources::Embedded,
+        None,
+        &sum,
+        &sum_odd,
+        width,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let mut round = kernels.round(rows, films.len(), samples).unwrap();
+    assert_eq!(round.pixels(), (width * rows.count) as usize);
+    for (k, film) in films.iter().enumerate() {
+        let image = |pixels: &[[f32; 4]]| {
+            let mut flat = vec![f32::NAN; len];
+            for (i, p) in pixels.iter().enumerate() {
+                let (x, r) = (i as u32 % width, i as u32 / width);
+                let at = ((rows.start + r * rows.step) * width + x) as usize * 4;
+                flat[at..at + 4].copy_from_slice(p);
+            }
+            flat
+        };
+        sum.write(&image(&film.sum)).enq().unwrap();
+        sum_odd.write(&image(&film.sum_odd)).enq().unwrap();
+        round.keep(k).unwrap();
+    }
+    f(&mut round)
+}
+
+/// One pixel channel's (sum, odd groups' sum) of `n` samples: mostly ordinary values, with
+/// every kind of adversarial one.
+fn channel(rng: &mut SmallRng, n: u32) -> (f32, f32) {
+    let half = n as f32 / 2.0;
+    let (even, odd) = match rng.random_range(0..10) {
+        0 => (0.0, 0.0),
+        1 => {
+            let v = rng.random::<f32>() * half;
+            (v, v) // no variance
+        }
+        2 => (rng.random::<f32>() * 1e-6, rng.random::<f32>() * 1e-6),
+        3 => (1e4 * half, 1e4 * half + rng.random::<f32>()), // huge, close halves
+        4 => (rng.random::<f32>() * 1e6, rng.random::<f32>()), // a firefly
+        _ => (rng.random::<f32>() * half, rng.random::<f32>() * half),
+    };
+    (even + odd, odd)
+}
+
+fn random_film(rng: &mut SmallRng, pixels: usize, n: u32) -> HostFilm {
+    let mut film = HostFilm {
+        sum: vec![[0.0; 4]; pixels],
+        sum_odd: vec![[0.0; 4]; pixels],
+    };
+    for p in 0..pixels {
+        for c in 0..3 {
+            (film.sum[p][c], film.sum_odd[p][c]) = channel(rng, n);
+        }
+        film.sum[p][3] = f32::NAN; // the fourth value is never read
+    }
+    film
+}
+
+fn close(device: f64, host: f64) -> bool {
+    (device - host).abs() <= RELATIVE * device.abs().max(host.abs())
+}
+
+#[test]
+fn device_sums_match_the_f64_formulas() {
+    let device = common::device();
+    let mut rng = SmallRng::seed_from_u64(12);
+    // 131 x 100 trial pixels: 12 whole chunks of 1024 and a partial one; every third row
+    // from row 1, the last trial row the image's top row. Then one narrow row, and one film.
+    for (width, height, rows, films, samples) in [
+        (
+            131,
+            300,
+            Rows {
+                start: 2,
+                count: 100,
+                step: 3,
+            },
+            4,
+            16,
+        ),
+        (
+            7,
+            1,
+            Rows {
+                start: 0,
+                count: 1,
+                step: 1,
+            },
+            3,
+            8,
+        ),
+        (
+            64,
+            64,
+            Rows {
+                start: 0,
+                count: 64,
+                step: 1,
+            },
+            1,
+            64,
+        ),
+    ] {
+        let pixels = (width * rows.count) as usize;
+        let films: Vec<HostFilm> = (0..films)
+            .map(|_| random_film(&mut rng, pixels, samples))
+            .collect();
+        let weights: Vec<f64> = (0..films.len())
+            .map(|k| (k as f64 + 0.5) / f64::from(samples))
+            .collect();
+        let mut host = HostRound {
+            films: films.clone(),
+            samples,
+        };
+        let (host_totals, host_terms) = (host.totals().unwrap(), host.terms(&weights).unwrap());
+        let (totals, terms) = on_device(&device, &films, samples, (width, height), rows, |d| {
+            (d.totals().unwrap(), d.terms(&weights).unwrap())
+        });
+        for k in 0..films.len() {
+            for (what, device, host) in [
+                ("mean", totals[k].0, host_totals[k].0),
+                ("variance", totals[k].1, host_totals[k].1),
+                ("relative variance", terms[k].0, host_terms[k].0),
+                ("its square", terms[k].1, host_terms[k].1),
+            ] {
+                assert!(
+                    close(device, host),
+                    "{width}x{height}, film {k}: {what} {device:e} on the device, {host:e} in f64"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_black_round_sums_to_zero() {
+    let device = common::device();
+    let rows = Rows {
+        start: 0,
+        count: 3,
+        step: 2,
+    };
+    let black = HostFilm {
+        sum: vec![[0.0; 4]; 30],
+        sum_odd: vec![[0.0; 4]; 30],
+    };
+    let (totals, terms) = on_device(&device, &[black.clone(), black], 8, (10, 6), rows, |d| {
+        (d.totals().unwrap(), d.terms(&[0.1, 0.1]).unwrap())
+    });
+    assert_eq!(totals, [(0.0, 0.0); 2]);
+    assert_eq!(terms, [(0.0, 0.0); 2]);
+}
+
+fn strategy(light_sampling: bool) -> Strategy {
+    Strategy {
+        light_sampling,
+        rr_threshold: 1.0,
+    }
+}
+
+/// A trial film of `pixels` pixels whose two groups of four sum to `even` and `odd` in every
+/// channel.
+fn film(pixels: usize, even: f32, odd: f32) -> HostFilm {
+    HostFilm {
+        sum: vec![[even + odd; 4]; pixels],
+        sum_odd: vec![[odd; 4]; pixels],
+    }
+}
+
+/// `choose` over `films` (of one row, seconds each) with the host's sums and with the
+/// device's; the two choices agree, the host's is returned.
+fn choose_both(films: &[HostFilm], seconds: &[f64]) -> Choice {
+    let pixels = films[0].sum.len();
+    let round = Round {
+        strategies: (0..films.len()).map(|k| strategy(k % 2 == 0)).collect(),
+        seconds: seconds.to_vec(),
+        samples: TRIAL_SPP,
+        pixels,
+    };
+    let mut host = HostRound {
+        films: films.to_vec(),
+        samples: TRIAL_SPP,
+    };
+    let on_host = strategy::choose(&round, &mut host, pixels as f64, 1.0).unwrap();
+    let rows = Rows {
+        start: 0,
+        count: 1,
+        step: 1,
+    };
+    let device = common::device();
+    let size = (pixels as u32, 1);
+    let on_device = on_device(&device, films, TRIAL_SPP, size, rows, |d| {
+        strategy::choose(&round, d, pixels as f64, 1.0).unwrap()
+    });
+    assert_eq!(
+        on_host.chosen, on_device.chosen,
+        "{on_host:?}\n{on_device:?}"
+    );
+    for (h, d) in on_host.measured.iter().zip(&on_device.measured) {
+        assert_eq!(h.missed_rare_paths, d.missed_rare_paths);
+        assert!(
+            close(d.relative_variance, h.relative_variance),
+            "{h:?}\n{d:?}"
+        );
+    }
+    on_host
+}
+
+#[test]
+fn the_least_variance_times_time_wins() {
+    // Mean 1 in both; the first has 4 times the second's variance and half its time.
+    let (a, b) = (film(100, 6.0, 2.0), film(100, 5.0, 3.0));
+    let choice = choose_both(&[a.clone(), b.clone()], &[1.0, 2.0]);
+    let m = &choice.measured;
+    assert!((m[0].relative_variance / m[1].relative_variance - 4.0).abs() < 1e-9);
+    assert_eq!(choice.chosen, 1, "{choice:?}");
+    // Four times as fast turns it round.
+    assert_eq!(choose_both(&[a, b], &[0.4, 2.0]).chosen, 0);
+    // Equal figures (a black picture): the first.
+    let black = film(100, 0.0, 0.0);
+    assert_eq!(choose_both(&[black.clone(), black], &[1.0, 1.0]).chosen, 0);
+}
+
+#[test]
+fn a_candidate_whose_mean_fell_short_missed_rare_paths_and_is_not_chosen() {
+    // Pixel means 1 with a little noise, against means of 0.5 with less noise: by the two
+    // being unbiased estimates of one image, the second missed its rare bright samples.
+    let precise: Vec<[f32; 4]> = (0..400).map(|i| [4.0 + (i % 3) as f32 * 0.1; 4]).collect();
+    let a = HostFilm {
+        sum: precise.iter().map(|p| p.map(|v| v * 2.0)).collect(),
+        sum_odd: precise.clone(),
+    };
+    let b = film(400, 2.0, 2.0);
+    let choice = choose_both(&[a, b], &[10.0, 0.1]);
+    assert!(choice.measured[1].missed_rare_paths, "{choice:?}");
+    assert!(!choice.measured[0].missed_rare_paths);
+    assert_eq!(choice.chosen, 0);
+}
