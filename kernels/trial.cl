@@ -20,17 +20,18 @@
  * TRIAL_CHUNK (the pixels a group sums) come from the host's build options (render/trial.rs),
  * which sizes the launches and the partial sums by them. */
 
-/* Copies the trial rows (row_start + r * row_step, r < row_count) of the film's two sums into
- * candidate `slot`'s part of `kept`: its sums, then its odd groups' sums, `width * row_count`
- * pixels each. One work-item a pixel. */
+/* Copies part of a round's trial rows of the film's two sums into candidate `slot`'s place in
+ * `kept` (its sums, then its odd groups' sums, `width * kept_rows` pixels each): film rows
+ * row_start + r * row_step for r < row_count, to kept rows kept_first + r * kept_step (a round
+ * renders its rows in interleaved parts: render/mod.rs, `trial_round`). One work-item a pixel. */
 __kernel void trial_keep(__global const float4* sum, __global const float4* sum_odd, uint width,
-                         uint row_start, uint row_step, uint row_count, uint slot,
-                         __global float4* kept) {
+                         uint kept_rows, uint row_start, uint row_step, uint row_count,
+                         uint kept_first, uint kept_step, uint slot, __global float4* kept) {
     const uint x = get_global_id(0), r = get_global_id(1);
     if (x >= width || r >= row_count) return;
-    const uint pixels = width * row_count;
+    const uint pixels = width * kept_rows;
     const uint from = (row_start + r * row_step) * width + x;
-    const uint to = r * width + x;
+    const uint to = (kept_first + r * kept_step) * width + x;
     kept[2u * slot * pixels + to] = sum[from];
     kept[(2u * slot + 1u) * pixels + to] = sum_odd[from];
 }

@@ -11,7 +11,7 @@ use clpt::device::Device;
 use clpt::device::program::KernelSources;
 use clpt::render::Rows;
 use clpt::render::strategy::{self, Choice, Round, Strategy, TRIAL_SPP, TrialSums};
-use clpt::render::trial::TrialKernels;
+use clpt::render::trial::{self, TrialKernels};
 use common::trial::{HostFilm, HostRound};
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
@@ -28,8 +28,23 @@ fn on_device<T>(
     device: &Device,
     films: &[HostFilm],
     samples: u32,
+    size: (u32, u32),
+    rows: Rows,
+    f: impl FnOnce(&mut dyn TrialSums) -> T,
+) -> T {
+    in_parts(device, films, samples, size, rows, 1, f)
+}
+
+/// [`on_device`], each film kept in `parts` interleaved parts of its rows ([`trial::part`]),
+/// every film's first part before any film's second, as a CPU's trial keeps them; the film
+/// between two parts holds only the part kept (NaN elsewhere).
+fn in_parts<T>(
+    device: &Device,
+    films: &[HostFilm],
+    samples: u32,
     (width, height): (u32, u32),
     rows: Rows,
+    parts: u32,
     f: impl FnOnce(&mut dyn TrialSums) -> T,
 ) -> T {
     let len = (width * height) as usize * 4;
@@ -52,19 +67,23 @@ fn on_device<T>(
     .unwrap_or_else(|e| panic!("{e}"));
     let mut round = kernels.round(rows, films.len(), samples).unwrap();
     assert_eq!(round.pixels(), (width * rows.count) as usize);
-    for (k, film) in films.iter().enumerate() {
-        let image = |pixels: &[[f32; 4]]| {
-            let mut flat = vec![f32::NAN; len];
-            for (i, p) in pixels.iter().enumerate() {
-                let (x, r) = (i as u32 % width, i as u32 / width);
-                let at = ((rows.start + r * rows.step) * width + x) as usize * 4;
-                flat[at..at + 4].copy_from_slice(p);
-            }
-            flat
-        };
-        sum.write(&image(&film.sum)).enq().unwrap();
-        sum_odd.write(&image(&film.sum_odd)).enq().unwrap();
-        round.keep(k).unwrap();
+    for part in 0..parts {
+        for (k, film) in films.iter().enumerate() {
+            let image = |pixels: &[[f32; 4]]| {
+                let mut flat = vec![f32::NAN; len];
+                for (i, p) in pixels.iter().enumerate() {
+                    let (x, r) = (i as u32 % width, i as u32 / width);
+                    if r % parts == part {
+                        let at = ((rows.start + r * rows.step) * width + x) as usize * 4;
+                        flat[at..at + 4].copy_from_slice(p);
+                    }
+                }
+                flat
+            };
+            sum.write(&image(&film.sum)).enq().unwrap();
+            sum_odd.write(&image(&film.sum_odd)).enq().unwrap();
+            round.keep(k, part, parts).unwrap();
+        }
     }
     f(&mut round)
 }
@@ -175,6 +194,36 @@ fn device_sums_match_the_f64_formulas() {
             }
         }
     }
+}
+
+#[test]
+fn a_round_kept_in_parts_sums_as_one_kept_whole() {
+    let device = common::device();
+    let mut rng = SmallRng::seed_from_u64(5);
+    let rows = Rows {
+        start: 1,
+        count: 10,
+        step: 2,
+    };
+    let films: Vec<HostFilm> = (0..2).map(|_| random_film(&mut rng, 330, 8)).collect();
+    let sums = |parts| {
+        in_parts(&device, &films, 8, (33, 21), rows, parts, |d| {
+            (d.totals().unwrap(), d.terms(&[0.05, 0.07]).unwrap())
+        })
+    };
+    let whole = sums(1);
+    // 10 rows in 3 parts of 4, 3 and 3 rows; in 4 of 3, 3, 2 and 2.
+    assert_eq!(sums(3), whole);
+    assert_eq!(sums(4), whole);
+    let part = |p, parts| {
+        let r = trial::part(rows, p, parts);
+        (r.start, r.count, r.step)
+    };
+    assert_eq!(
+        [part(0, 3), part(1, 3), part(2, 3)],
+        [(1, 4, 6), (3, 3, 6), (5, 3, 6)]
+    );
+    assert_eq!(part(11, 12).1, 0);
 }
 
 #[test]

@@ -855,7 +855,7 @@ impl<'d> Renderer<'d> {
         } else {
             first
         };
-        let scouted = self.trial_round(&all, first, &start)?;
+        let (scouted, _) = self.trial_round(&all, first, &start)?;
         let survivors = scouted.survivors();
         let full = self.options.spp.and_then(|spp| {
             strategy::full_round_plan(&scouted, first, &survivors, spp, (self.width(), height))
@@ -864,12 +864,13 @@ impl<'d> Renderer<'d> {
             None => scouted,
             Some(plan) => {
                 self.clear_film()?;
-                let round = self.trial_round(&survivors, plan, &start)?;
+                let (round, parts) = self.trial_round(&survivors, plan, &start)?;
                 let mut choice = Choice::merge(&scouted, &survivors, round);
                 // The last film rendered is still there: the winner's when it rendered last
-                // (survivors() puts the scouts' best last) on every row. The render goes on
-                // from it.
-                if plan.row_step == 1 && survivors.last() == Some(&choice.chosen) {
+                // (survivors() puts the scouts' best last) on every row, in one part. The
+                // render goes on from it.
+                let whole = plan.row_step == 1 && parts == 1;
+                if whole && survivors.last() == Some(&choice.chosen) {
                     choice.film_samples = plan.samples;
                 }
                 choice
@@ -884,16 +885,18 @@ impl<'d> Renderer<'d> {
         Ok(choice)
     }
 
-    /// One round of the trial: the candidates `which` (indices into the candidate list), in
-    /// that order, each render the plan's rows and samples, which are kept on the device
-    /// (render/trial.rs) before the film is cleared for the next; the last one's are left in
-    /// the film.
+    /// One round of the trial: the candidates `which` (indices into the candidate list) each
+    /// render the plan's rows and samples, in interleaved parts on a CPU
+    /// ([`strategy::timing_parts`]: every candidate renders a part, in the order of `which`,
+    /// before the next part), each part kept on the device (render/trial.rs) before the film
+    /// is cleared for the next. The film is left holding the last render: with one part, the
+    /// last candidate's whole round.
     fn trial_round(
         &mut self,
         which: &[usize],
         plan: strategy::TrialPlan,
         start: &Instant,
-    ) -> Result<Choice> {
+    ) -> Result<(Choice, u32)> {
         let (width, height) = (self.width(), self.height());
         let step = plan.row_step;
         let first_row = (step - 1) / 2;
@@ -902,6 +905,7 @@ impl<'d> Renderer<'d> {
             count: (height - first_row).div_ceil(step),
             step,
         };
+        let parts = strategy::timing_parts(&self.device.description.kind).min(rows.count);
         let strategies: Vec<Strategy> = which.iter().map(|&i| self.candidates[i]).collect();
         let kernels = self
             .trial
@@ -909,20 +913,28 @@ impl<'d> Renderer<'d> {
             .expect("trial kernels wherever there are several candidates");
         let round = (|| {
             let mut kept = kernels.round(rows, strategies.len(), plan.samples)?;
-            let mut seconds = Vec::new();
-            for (k, &candidate) in strategies.iter().enumerate() {
-                if k > 0 {
-                    self.clear_film()?;
+            let mut timed = vec![Vec::new(); strategies.len()];
+            for part in 0..parts {
+                let part_rows = trial::part(rows, part, parts);
+                for (k, &candidate) in strategies.iter().enumerate() {
+                    if k > 0 || part > 0 {
+                        self.clear_film()?;
+                    }
+                    self.select(candidate)?;
+                    let seconds =
+                        self.render_rows(part_rows, self.options.first_sample, plan.samples)?;
+                    timed[k].push((seconds, part_rows.count));
+                    // The trial's few samples (at most 64) need no compensation: `sum` alone
+                    // is exact enough.
+                    kept.keep(k, part, parts)?;
                 }
-                self.select(candidate)?;
-                seconds.push(self.render_rows(rows, self.options.first_sample, plan.samples)?);
-                // The trial's few samples (at most 64) need no compensation: `sum` alone is
-                // exact enough.
-                kept.keep(k)?;
             }
             let round = strategy::Round {
                 strategies: strategies.clone(),
-                seconds,
+                seconds: timed
+                    .iter()
+                    .map(|t| strategy::robust_seconds(t, rows.count))
+                    .collect(),
                 samples: plan.samples,
                 pixels: kept.pixels(),
             };
@@ -930,7 +942,7 @@ impl<'d> Renderer<'d> {
             strategy::choose(&round, &mut kept, pixels, start.elapsed().as_secs_f64())
         })();
         self.trial = Some(kernels);
-        round
+        round.map(|choice| (choice, parts))
     }
 
     /// Renders until the sample count or time limit, calling `on_progress` after every pass.

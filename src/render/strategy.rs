@@ -76,17 +76,52 @@ const SCOUT_SHARE: f64 = 0.01;
 /// work-items idle.
 const MIN_SCOUT_PATHS: f64 = (1 << 20) as f64;
 
-/// The floor on a CPU device ([`min_scout_paths`]): a CPU traces 2^20 paths in about 1 s on
-/// 2 cores (PoCL; 3% of the samples of the BENCHMARKS scenes at 160x120 and 256 samples, where
-/// 1% was the share), and 2^13 in some 8 ms, still far above a launch's 0.1 ms and two groups
-/// of work-items for each of 64 cores.
-const MIN_SCOUT_PATHS_CPU: f64 = (1 << 13) as f64;
+/// The floor on a CPU device ([`min_scout_paths`]), where a launch's latency (about 0.1 ms on
+/// PoCL) needs no more than a few thousand paths but a choice between settings 20% apart
+/// does: smallpt at 160x120 and 256 samples (on, 1 against on, 0.3, 21% apart), six seeds,
+/// chose the worse 4 times with 2^13 paths, twice with 2^14, never with 2^15 (trials of 0.09,
+/// 0.09 and 0.14 s of a 6 s render; the GPU's 2^20, 3% of the samples, 0.18 s and once).
+const MIN_SCOUT_PATHS_CPU: f64 = (1 << 15) as f64;
 
 /// A full round runs only where it measures each survivor on at least this many times the
 /// scouting round's samples ([`full_round_plan`]): one barely larger repeats the scouts' noise
 /// (its standard errors 10% smaller for 1.2 times the paths) at the price of every survivor's
 /// launches again.
 const FULL_ROUND_GAIN: f64 = 2.0;
+
+/// Parts a CPU device's trial round renders in ([`timing_parts`]).
+const CPU_TIMING_PARTS: u32 = 3;
+
+/// How many interleaved parts of its rows a trial round renders on a device of `kind`, each
+/// part by every candidate in turn before the next part (render/mod.rs, `trial_round`); a
+/// candidate's seconds are then those of its fastest part, scaled to the whole
+/// ([`robust_seconds`]). On a CPU, whose threads share the machine with everything else, a
+/// trial's launches of 10 to 40 ms take up to 1.6 times as long as usual at random: PoCL on 2
+/// cores of a shared machine, smallpt at 160x120, one seed, eight runs each, read its first
+/// candidate at 0.97 to 1.54 us a path (4 runs of 8 off by 8 to 60%, any candidate) in one
+/// part, and at 0.95 to 0.99 us (every candidate within 5%) in three. A GPU renders each
+/// round at once: parts would leave it idle (a third of 2^18 pixels is below what an H200
+/// keeps resident), and its timings repeat within 1% (BENCHMARKS.md).
+pub fn timing_parts(kind: &str) -> u32 {
+    if kind == "CPU" { CPU_TIMING_PARTS } else { 1 }
+}
+
+/// A candidate's seconds on a round's `rows` rows from its seconds on each part (`parts`: the
+/// seconds and the rows of each): the rate of its fastest part, whose time least includes
+/// what else ran on the machine, over all the rows. The parts are interleaved rows of one
+/// set, alike in cost; interference only ever adds time.
+pub fn robust_seconds(parts: &[(f64, u32)], rows: u32) -> f64 {
+    let fastest = parts
+        .iter()
+        .filter(|&&(_, n)| n > 0)
+        .map(|&(s, n)| s / f64::from(n))
+        .fold(f64::INFINITY, f64::min);
+    if fastest.is_finite() {
+        fastest * f64::from(rows)
+    } else {
+        parts.iter().map(|&(s, _)| s).sum()
+    }
+}
 
 /// The least paths a candidate traces in the scouting round on a device of `kind` (an OpenCL
 /// device type as `clpt devices` lists it: "CPU", "GPU", ...).
@@ -633,7 +668,7 @@ impl fmt::Display for Choice {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}", self.strategy())?;
         if self.was_measured() {
-            write!(f, " (chosen in a {:.2} s trial", self.seconds)?;
+            write!(f, " (chosen in a {:.3} s trial", self.seconds)?;
             if self.film_samples > 0 {
                 write!(
                     f,
@@ -777,6 +812,16 @@ mod tests {
     }
 
     #[test]
+    fn a_candidates_seconds_are_those_of_its_fastest_part() {
+        // Three parts of 4, 3 and 3 rows, the second slowed by something else: 0.1 s a row.
+        assert!((robust_seconds(&[(0.4, 4), (0.6, 3), (0.32, 3)], 10) - 1.0).abs() < 1e-12);
+        // One part: its seconds; no rows: the parts' seconds.
+        assert_eq!(robust_seconds(&[(0.7, 10)], 10), 0.7);
+        assert_eq!(robust_seconds(&[(0.0, 0)], 0), 0.0);
+        assert_eq!((timing_parts("CPU"), timing_parts("GPU")), (3, 1));
+    }
+
+    #[test]
     fn a_full_round_takes_more_samples_on_fewer_rows() {
         let plan = |budget, step| {
             let p = plan_on_rows(budget, step, 1080);
@@ -813,15 +858,16 @@ mod tests {
         assert_eq!(plan(None, 2560, 1440), (15, 24));
         assert_eq!(plan(Some(100_000), 1024, 768), (4, 8));
         assert_eq!(plan(Some(100_000), 320, 240), (4, 8));
-        // A CPU's floor is 2^13 paths: 1% of 256 samples at 160x120 (every 13th row, where a
-        // GPU's floor takes every 4th), 0.57 samples' worth at 64 on 160x90, not 0.16.
+        // A CPU's floor is 2^15 paths: 1.7 samples' worth at 160x120 (every 5th row, where a
+        // GPU's floor takes every 4th), and 1% of the samples once that is more.
         let cpu = |spp, width, height| {
             let p = scout_plan(4, spp, (width, height), min_scout_paths("CPU"));
             (p.row_step, p.samples)
         };
         assert_eq!(plan(Some(256), 160, 120), (4, 8));
-        assert_eq!(cpu(Some(256), 160, 120), (13, 8));
-        assert_eq!(cpu(Some(64), 160, 90), (15, 8));
+        assert_eq!(cpu(Some(256), 160, 120), (5, 8));
+        assert_eq!(cpu(Some(256), 640, 480), (13, 8));
+        assert_eq!(plan(Some(256), 640, 480), (4, 8));
         assert_eq!(min_scout_paths("GPU"), MIN_SCOUT_PATHS);
     }
 }

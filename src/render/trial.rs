@@ -19,6 +19,16 @@ const GROUP: u32 = 64;
 /// image (kernels/trial.cl); the host adds the chunks in f64.
 const CHUNK: u32 = 1024;
 
+/// Part `part` of `parts` of `rows`: every `parts`-th of them from the `part`-th (none where
+/// there are fewer rows than parts).
+pub fn part(rows: Rows, part: u32, parts: u32) -> Rows {
+    Rows {
+        start: rows.start + part * rows.step,
+        count: rows.count.saturating_sub(part).div_ceil(parts),
+        step: rows.step * parts,
+    }
+}
+
 /// The trial's program and kernels, bound to one film's `sum` and `sum_odd` buffers.
 pub struct TrialKernels {
     program: BuiltProgram,
@@ -59,9 +69,12 @@ impl TrialKernels {
             .arg(sum)
             .arg(sum_odd)
             .arg(width)
+            .arg_named("kept_rows", 0u32)
             .arg_named("row_start", 0u32)
             .arg_named("row_step", 1u32)
             .arg_named("row_count", 0u32)
+            .arg_named("kept_first", 0u32)
+            .arg_named("kept_step", 1u32)
             .arg_named("slot", 0u32)
             .arg_named("kept", placeholder)
             .build()
@@ -146,23 +159,31 @@ impl KeptRound<'_> {
         self.pixels
     }
 
-    /// Copies the film's trial rows into candidate `slot`'s place (enqueued: the next
-    /// command on the queue sees them).
-    pub fn keep(&mut self, slot: usize) -> Result<()> {
+    /// Copies the film's trial rows of `part` of `parts` ([`part`]) into candidate `slot`'s
+    /// place (enqueued: the next command on the queue sees them).
+    pub fn keep(&mut self, slot: usize, part: u32, parts: u32) -> Result<()> {
         assert!(slot < self.films, "slot {slot} of {} films", self.films);
+        let rows = self::part(self.rows, part, parts);
         let k = &self.kernels.keep;
         let bad = fail("keeping the trial's rows");
-        k.set_arg("row_start", self.rows.start).map_err(&bad)?;
-        k.set_arg("row_step", self.rows.step).map_err(&bad)?;
-        k.set_arg("row_count", self.rows.count).map_err(&bad)?;
+        k.set_arg("kept_rows", self.rows.count).map_err(&bad)?;
+        k.set_arg("row_start", rows.start).map_err(&bad)?;
+        k.set_arg("row_step", rows.step).map_err(&bad)?;
+        k.set_arg("row_count", rows.count).map_err(&bad)?;
+        k.set_arg("kept_first", part).map_err(&bad)?;
+        k.set_arg("kept_step", parts).map_err(&bad)?;
         k.set_arg("slot", slot as u32).map_err(&bad)?;
         k.set_arg("kept", &self.kept).map_err(&bad)?;
+        if rows.count == 0 {
+            return Ok(());
+        }
         let round_up = |n: u32| n.div_ceil(8) as usize * 8;
-        // SAFETY: the film holds every row of `rows` (the renderer's trial rows lie in the
-        // image); `kept` holds `films` slots of the rows; the kernel skips padded work-items.
+        // SAFETY: the film holds every row of the round (the renderer's trial rows lie in the
+        // image); `kept` holds `films` slots of the round's rows, and part `part` of them are
+        // kept rows part + i * parts < rows.count; the kernel skips padded work-items.
         unsafe {
             k.cmd()
-                .global_work_size([round_up(self.kernels.width), round_up(self.rows.count)])
+                .global_work_size([round_up(self.kernels.width), round_up(rows.count)])
                 .local_work_size([8, 8])
                 .enq()
         }
