@@ -58,55 +58,57 @@ static float2 trial_group_sum(float2 v, __local float2* scratch) {
     return total;
 }
 
-/* Per chunk of `pixels` kept pixels and candidate k of `films`, each of `samples` samples a
- * pixel: out[chunk * films + k] = (sum over the chunk's pixels and channels of the pixel's
- * mean, and of its mean's variance: the stratified variance over n). */
-__kernel __attribute__((reqd_work_group_size(TRIAL_GROUP, 1, 1))) void trial_totals(
-    __global const float4* kept, uint pixels, uint films, uint samples, __global float2* out) {
-    __local float2 scratch[TRIAL_GROUP];
+/* Candidate k's two figures at kept pixel p (of `pixels` a candidate, `films` candidates of n
+ * samples a pixel): for trial_totals the pixel's mean summed over channels and its mean's
+ * variance (the stratified variance over n); for trial_terms (`terms`) its relative variance of
+ * one sample, the channels' mean of the stratified variance over the common denominator
+ * d^2 + eps (d the candidates' sums weighted by `weights`: render/strategy.rs,
+ * `denominator_weights`), and that squared. */
+static inline float2 trial_pixel(__global const float4* kept, uint pixels, uint films, uint k,
+                                 uint p, float n, bool terms, __global const float* weights,
+                                 float eps) {
+    const float3 s = kept[2u * k * pixels + p].xyz, o = kept[(2u * k + 1u) * pixels + p].xyz;
+    if (!terms) {
+        const float3 var = trial_stratified_variance(s, o, n) / n;
+        return (float2)(s.x + s.y + s.z, var.x + var.y + var.z) / (float2)(n, 1.0f);
+    }
+    float3 d = (float3)(0.0f);
+    for (uint j = 0u; j < films; ++j) d += weights[j] * kept[2u * j * pixels + p].xyz;
+    const float3 rel = trial_stratified_variance(s, o, n) / (d * d + eps);
+    const float term = (rel.x + rel.y + rel.z) / 3.0f;
+    return (float2)(term, term * term);
+}
+
+/* Per chunk of TRIAL_CHUNK kept pixels (this group's) and candidate k: out[chunk * films + k]
+ * = the sums over the chunk's pixels of trial_pixel's two figures. */
+static void trial_reduce(__global const float4* kept, uint pixels, uint films, uint samples,
+                         bool terms, __global const float* weights, float eps,
+                         __global float2* out, __local float2* scratch) {
     const uint chunk = get_group_id(0), l = get_local_id(0);
     const uint first = chunk * TRIAL_CHUNK;
     const uint end = min(first + TRIAL_CHUNK, pixels);
     const float n = (float)samples;
     for (uint k = 0u; k < films; ++k) {
-        __global const float4* sum = kept + 2u * k * pixels;
-        __global const float4* odd = sum + pixels;
         float2 acc = (float2)(0.0f);
-        for (uint p = first + l; p < end; p += TRIAL_GROUP) {
-            const float3 s = sum[p].xyz, o = odd[p].xyz;
-            const float3 var = trial_stratified_variance(s, o, n) / n;
-            acc += (float2)(s.x + s.y + s.z, var.x + var.y + var.z) / (float2)(n, 1.0f);
-        }
+        for (uint p = first + l; p < end; p += TRIAL_GROUP)
+            acc += trial_pixel(kept, pixels, films, k, p, n, terms, weights, eps);
         const float2 total = trial_group_sum(acc, scratch);
         if (l == 0u) out[chunk * films + k] = total;
     }
 }
 
-/* Per chunk and candidate k: out[chunk * films + k] = (sum over the chunk's pixels of the
- * pixel's relative variance of one sample, and of its square). The relative variance is the
- * channels' mean of the stratified variance over the common denominator d^2 + eps, d the
- * candidates' sums weighted by `weights` (render/strategy.rs, `denominator_weights`). */
+/* Each candidate's image sums, chunk by chunk: (pixel means, their variances). */
+__kernel __attribute__((reqd_work_group_size(TRIAL_GROUP, 1, 1))) void trial_totals(
+    __global const float4* kept, uint pixels, uint films, uint samples, __global float2* out) {
+    __local float2 scratch[TRIAL_GROUP];
+    trial_reduce(kept, pixels, films, samples, false, (__global const float*)0, 0.0f, out,
+                 scratch);
+}
+
+/* Each candidate's relative variances, chunk by chunk: (their sum, the sum of their squares). */
 __kernel __attribute__((reqd_work_group_size(TRIAL_GROUP, 1, 1))) void trial_terms(
     __global const float4* kept, uint pixels, uint films, uint samples,
     __global const float* weights, float eps, __global float2* out) {
     __local float2 scratch[TRIAL_GROUP];
-    const uint chunk = get_group_id(0), l = get_local_id(0);
-    const uint first = chunk * TRIAL_CHUNK;
-    const uint end = min(first + TRIAL_CHUNK, pixels);
-    const float n = (float)samples;
-    for (uint k = 0u; k < films; ++k) {
-        __global const float4* sum = kept + 2u * k * pixels;
-        __global const float4* odd = sum + pixels;
-        float2 acc = (float2)(0.0f);
-        for (uint p = first + l; p < end; p += TRIAL_GROUP) {
-            float3 d = (float3)(0.0f);
-            for (uint j = 0u; j < films; ++j) d += weights[j] * kept[2u * j * pixels + p].xyz;
-            const float3 var = trial_stratified_variance(sum[p].xyz, odd[p].xyz, n);
-            const float3 rel = var / (d * d + eps);
-            const float term = (rel.x + rel.y + rel.z) / 3.0f;
-            acc += (float2)(term, term * term);
-        }
-        const float2 total = trial_group_sum(acc, scratch);
-        if (l == 0u) out[chunk * films + k] = total;
-    }
+    trial_reduce(kept, pixels, films, samples, true, weights, eps, out, scratch);
 }
