@@ -227,9 +227,9 @@ inline bool warp_vote_half(bool p) {
 }
 #endif
 
-/* Accumulates sample_count samples from sample_start into every pixel of rows row_start,
- * row_start + row_step, ... (row_count of them; row_step > 1 only for the strategy trial of
- * render/strategy.rs): the sums of radiance (compensated: sum + sum_lo) and of its squares,
+/* Accumulates sample_count samples from sample_start into every col_step-th pixel (from
+ * (col_step - 1) / 2) of rows row_start, row_start + row_step, ... (row_count of them; steps
+ * above 1 only for the strategy trial of render/strategy.rs): the sums of radiance (compensated: sum + sum_lo) and of its squares,
  * and apart the (compensated) sum of the samples of odd-numbered groups of four, so that the even and odd halves give two independent
  * estimates of each pixel whose difference measures the error (error_rows). The halves are two
  * independent quasi-random sequences (rng.h), so the difference measures the error of their
@@ -240,9 +240,10 @@ __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum, __global floa
                           __global float4* sum_sq, __global float4* sum_odd,
                           __global float4* sum_odd_lo, __global uint* bad,
                           __global uint* bad_first, uint sample_start,
-                          uint sample_count, uint row_start, uint row_count, uint row_step) {
+                          uint sample_count, uint row_start, uint row_count, uint row_step,
+                          uint col_step) {
     const Scene scene = SCENE_FROM_KERNEL_ARGS;
-    const uint px = get_global_id(0);
+    const uint px = (col_step - 1u) / 2u + get_global_id(0) * col_step;
     if (px >= params->camera.width || get_global_id(1) >= row_count) {
         return; /* padding of the global size to whole work-groups */
     }

@@ -3,7 +3,10 @@
  * Reads: the film's `sum` and `sum_odd` on a round's trial rows, after each candidate rendered
  * them (trial_keep), then every candidate's kept rows at once. Writes: per candidate its rows
  * into `kept` (trial_keep), and per chunk of TRIAL_CHUNK kept pixels and candidate two sums
- * (trial_totals, trial_terms), which the host adds up in f64, chunk by chunk in order.
+ * (trial_totals, trial_terms), which the host adds up in f64, chunk by chunk in order. A round
+ * that extrapolates (render/strategy.rs, `extrapolate`) also keeps each candidate's rows after
+ * its first samples, in slots `films` on: trial_terms reads those with `base` = films, over
+ * the same denominator (the final films').
  *
  * Why on the device: a trial read back to the host cost a fast scene 2 to 3 ms a candidate
  * (its rows, 4 MiB of sums, and the host's pass over them) where the candidate rendered in 1
@@ -20,18 +23,21 @@
  * TRIAL_CHUNK (the pixels a group sums) come from the host's build options (render/trial.rs),
  * which sizes the launches and the partial sums by them. */
 
-/* Copies part of a round's trial rows of the film's two sums into candidate `slot`'s place in
- * `kept` (its sums, then its odd groups' sums, `width * kept_rows` pixels each): film rows
- * row_start + r * row_step for r < row_count, to kept rows kept_first + r * kept_step (a round
- * renders its rows in interleaved parts: render/mod.rs, `trial_round`). One work-item a pixel. */
+/* Copies part of a round's trial pixels of the film's two sums into candidate `slot`'s place
+ * in `kept` (its sums, then its odd groups' sums, `columns * kept_rows` pixels each): of film
+ * rows row_start + r * row_step for r < row_count, the columns (col_step - 1) / 2 + x *
+ * col_step for x < columns (render/mod.rs, `Rows`), to kept rows kept_first + r * kept_step (a
+ * round renders its rows in interleaved parts: render/mod.rs, `trial_round`). One work-item a
+ * pixel. */
 __kernel void trial_keep(__global const float4* sum, __global const float4* sum_odd, uint width,
                          uint kept_rows, uint row_start, uint row_step, uint row_count,
-                         uint kept_first, uint kept_step, uint slot, __global float4* kept) {
+                         uint kept_first, uint kept_step, uint slot, uint col_step,
+                         uint columns, __global float4* kept) {
     const uint x = get_global_id(0), r = get_global_id(1);
-    if (x >= width || r >= row_count) return;
-    const uint pixels = width * kept_rows;
-    const uint from = (row_start + r * row_step) * width + x;
-    const uint to = (kept_first + r * kept_step) * width + x;
+    if (x >= columns || r >= row_count) return;
+    const uint pixels = columns * kept_rows;
+    const uint from = (row_start + r * row_step) * width + (col_step - 1u) / 2u + x * col_step;
+    const uint to = (kept_first + r * kept_step) * columns + x;
     kept[2u * slot * pixels + to] = sum[from];
     kept[(2u * slot + 1u) * pixels + to] = sum_odd[from];
 }
@@ -58,16 +64,18 @@ static float2 trial_group_sum(float2 v, __local float2* scratch) {
     return total;
 }
 
-/* Candidate k's two figures at kept pixel p (of `pixels` a candidate, `films` candidates of n
- * samples a pixel): for trial_totals the pixel's mean summed over channels and its mean's
- * variance (the stratified variance over n); for trial_terms (`terms`) its relative variance of
- * one sample, the channels' mean of the stratified variance over the common denominator
- * d^2 + eps (d the candidates' sums weighted by `weights`: render/strategy.rs,
- * `denominator_weights`), and that squared. */
-static inline float2 trial_pixel(__global const float4* kept, uint pixels, uint films, uint k,
-                                 uint p, float n, bool terms, __global const float* weights,
-                                 float eps) {
-    const float3 s = kept[2u * k * pixels + p].xyz, o = kept[(2u * k + 1u) * pixels + p].xyz;
+/* Candidate k's two figures at kept pixel p (of `pixels` a candidate, `films` candidates; its
+ * film of n samples a pixel in slot base + k): for trial_totals the pixel's mean summed over
+ * channels and its mean's variance (the stratified variance over n); for trial_terms (`terms`)
+ * its relative variance of one sample, the channels' mean of the stratified variance over the
+ * common denominator d^2 + eps (d the sums of slots 0 to films - 1 weighted by `weights`:
+ * render/strategy.rs, `denominator_weights`), and that squared. */
+static inline float2 trial_pixel(__global const float4* kept, uint pixels, uint films, uint base,
+                                 uint k, uint p, float n, bool terms,
+                                 __global const float* weights, float eps) {
+    const uint slot = base + k;
+    const float3 s = kept[2u * slot * pixels + p].xyz;
+    const float3 o = kept[(2u * slot + 1u) * pixels + p].xyz;
     if (!terms) {
         const float3 var = trial_stratified_variance(s, o, n) / n;
         return (float2)(s.x + s.y + s.z, var.x + var.y + var.z) / (float2)(n, 1.0f);
@@ -81,8 +89,8 @@ static inline float2 trial_pixel(__global const float4* kept, uint pixels, uint 
 
 /* Per chunk of TRIAL_CHUNK kept pixels (this group's) and candidate k: out[chunk * films + k]
  * = the sums over the chunk's pixels of trial_pixel's two figures. */
-static void trial_reduce(__global const float4* kept, uint pixels, uint films, uint samples,
-                         bool terms, __global const float* weights, float eps,
+static void trial_reduce(__global const float4* kept, uint pixels, uint films, uint base,
+                         uint samples, bool terms, __global const float* weights, float eps,
                          __global float2* out, __local float2* scratch) {
     const uint chunk = get_group_id(0), l = get_local_id(0);
     const uint first = chunk * TRIAL_CHUNK;
@@ -91,7 +99,7 @@ static void trial_reduce(__global const float4* kept, uint pixels, uint films, u
     for (uint k = 0u; k < films; ++k) {
         float2 acc = (float2)(0.0f);
         for (uint p = first + l; p < end; p += TRIAL_GROUP)
-            acc += trial_pixel(kept, pixels, films, k, p, n, terms, weights, eps);
+            acc += trial_pixel(kept, pixels, films, base, k, p, n, terms, weights, eps);
         const float2 total = trial_group_sum(acc, scratch);
         if (l == 0u) out[chunk * films + k] = total;
     }
@@ -101,14 +109,15 @@ static void trial_reduce(__global const float4* kept, uint pixels, uint films, u
 __kernel __attribute__((reqd_work_group_size(TRIAL_GROUP, 1, 1))) void trial_totals(
     __global const float4* kept, uint pixels, uint films, uint samples, __global float2* out) {
     __local float2 scratch[TRIAL_GROUP];
-    trial_reduce(kept, pixels, films, samples, false, (__global const float*)0, 0.0f, out,
+    trial_reduce(kept, pixels, films, 0u, samples, false, (__global const float*)0, 0.0f, out,
                  scratch);
 }
 
-/* Each candidate's relative variances, chunk by chunk: (their sum, the sum of their squares). */
+/* Each candidate's relative variances, chunk by chunk: (their sum, the sum of their squares),
+ * of the films in slots base to base + films - 1, of `samples` samples a pixel. */
 __kernel __attribute__((reqd_work_group_size(TRIAL_GROUP, 1, 1))) void trial_terms(
     __global const float4* kept, uint pixels, uint films, uint samples,
-    __global const float* weights, float eps, __global float2* out) {
+    __global const float* weights, float eps, uint base, __global float2* out) {
     __local float2 scratch[TRIAL_GROUP];
-    trial_reduce(kept, pixels, films, samples, true, weights, eps, out, scratch);
+    trial_reduce(kept, pixels, films, base, samples, true, weights, eps, out, scratch);
 }

@@ -10,6 +10,7 @@ mod common;
 use clpt::device::Device;
 use clpt::device::program::KernelSources;
 use clpt::render::Rows;
+use clpt::render::metrics::REL_EPSILON;
 use clpt::render::strategy::{self, Choice, Round, Strategy, TRIAL_SPP, TrialSums};
 use clpt::render::trial::{self, TrialKernels};
 use common::trial::{HostFilm, HostRound};
@@ -21,18 +22,27 @@ use rand::{RngExt, SeedableRng};
 /// eight times that.
 const RELATIVE: f64 = 1e-5;
 
-/// Renders nothing: puts each of `films` (the pixels of `rows`, row by row) into a film of
-/// `width` x `height` whose other pixels are NaN, keeps it as a trial round's candidate on
-/// the device, and hands the round to `f`.
+/// Renders nothing: puts each of the round's films (the pixels of `rows`, row by row) into a
+/// film of `width` x `height` whose other pixels are NaN, keeps it as a trial round's
+/// candidate on the device (its early film first, where the round has them), and hands the
+/// round to `f`.
 fn on_device<T>(
     device: &Device,
-    films: &[HostFilm],
-    samples: u32,
+    round: &HostRound,
     size: (u32, u32),
     rows: Rows,
     f: impl FnOnce(&mut dyn TrialSums) -> T,
 ) -> T {
-    in_parts(device, films, samples, size, rows, 1, f)
+    in_parts(device, round, size, rows, 1, f)
+}
+
+/// A round of `films` of `samples` samples a pixel, without early films.
+fn plain(films: &[HostFilm], samples: u32) -> HostRound {
+    HostRound {
+        films: films.to_vec(),
+        samples,
+        early: None,
+    }
 }
 
 /// [`on_device`], each film kept in `parts` interleaved parts of its rows ([`trial::part`]),
@@ -40,13 +50,13 @@ fn on_device<T>(
 /// between two parts holds only the part kept (NaN elsewhere).
 fn in_parts<T>(
     device: &Device,
-    films: &[HostFilm],
-    samples: u32,
+    host: &HostRound,
     (width, height): (u32, u32),
     rows: Rows,
     parts: u32,
     f: impl FnOnce(&mut dyn TrialSums) -> T,
 ) -> T {
+    let films = &host.films;
     let len = (width * height) as usize * 4;
     let buffer = || {
         ocl::Buffer::<f32>::builder()
@@ -65,21 +75,31 @@ fn in_parts<T>(
         width,
     )
     .unwrap_or_else(|e| panic!("{e}"));
-    let mut round = kernels.round(rows, films.len(), samples).unwrap();
-    assert_eq!(round.pixels(), (width * rows.count) as usize);
+    let early = host.early.as_ref().map(|(n, _)| *n);
+    let mut round = kernels
+        .round(rows, films.len(), host.samples, early)
+        .unwrap();
+    let columns = rows.columns(width);
+    assert_eq!(round.pixels(), (columns * rows.count) as usize);
     for part in 0..parts {
         for (k, film) in films.iter().enumerate() {
             let image = |pixels: &[[f32; 4]]| {
                 let mut flat = vec![f32::NAN; len];
                 for (i, p) in pixels.iter().enumerate() {
-                    let (x, r) = (i as u32 % width, i as u32 / width);
+                    let (x, r) = (i as u32 % columns, i as u32 / columns);
                     if r % parts == part {
-                        let at = ((rows.start + r * rows.step) * width + x) as usize * 4;
+                        let column = rows.first_column() + x * rows.col_step;
+                        let at = ((rows.start + r * rows.step) * width + column) as usize * 4;
                         flat[at..at + 4].copy_from_slice(p);
                     }
                 }
                 flat
             };
+            if let Some((_, early)) = &host.early {
+                sum.write(&image(&early[k].sum)).enq().unwrap();
+                sum_odd.write(&image(&early[k].sum_odd)).enq().unwrap();
+                round.keep_early(k, part, parts).unwrap();
+            }
             sum.write(&image(&film.sum)).enq().unwrap();
             sum_odd.write(&image(&film.sum_odd)).enq().unwrap();
             round.keep(k, part, parts).unwrap();
@@ -129,15 +149,17 @@ fn device_sums_match_the_f64_formulas() {
     let device = common::device();
     let mut rng = SmallRng::seed_from_u64(12);
     // 131 x 100 trial pixels: 12 whole chunks of 1024 and a partial one; every third row
-    // from row 1, the last trial row the image's top row. Then one narrow row, and one film.
+    // from row 2, the last trial row the image's top row, and every third column from column
+    // 1 of 393. Then one narrow row, and one film.
     for (width, height, rows, films, samples) in [
         (
-            131,
+            393,
             300,
             Rows {
                 start: 2,
                 count: 100,
                 step: 3,
+                col_step: 3,
             },
             4,
             16,
@@ -149,6 +171,7 @@ fn device_sums_match_the_f64_formulas() {
                 start: 0,
                 count: 1,
                 step: 1,
+                col_step: 1,
             },
             3,
             8,
@@ -160,32 +183,48 @@ fn device_sums_match_the_f64_formulas() {
                 start: 0,
                 count: 64,
                 step: 1,
+                col_step: 1,
             },
             1,
             64,
         ),
     ] {
-        let pixels = (width * rows.count) as usize;
+        let pixels = (rows.columns(width) * rows.count) as usize;
         let films: Vec<HostFilm> = (0..films)
             .map(|_| random_film(&mut rng, pixels, samples))
             .collect();
         let weights: Vec<f64> = (0..films.len())
             .map(|k| (k as f64 + 0.5) / f64::from(samples))
             .collect();
+        // The films after their first 8 samples: random films of their own (the sums only
+        // need to be held to the formulas, over the final films' denominator).
+        let early: Vec<HostFilm> = (0..films.len())
+            .map(|_| random_film(&mut rng, pixels, TRIAL_SPP))
+            .collect();
         let mut host = HostRound {
             films: films.clone(),
             samples,
+            early: Some((TRIAL_SPP, early)),
         };
-        let (host_totals, host_terms) = (host.totals().unwrap(), host.terms(&weights).unwrap());
-        let (totals, terms) = on_device(&device, &films, samples, (width, height), rows, |d| {
-            (d.totals().unwrap(), d.terms(&weights).unwrap())
-        });
+        let sums = |d: &mut dyn TrialSums| {
+            (
+                d.totals().unwrap(),
+                d.terms(&weights).unwrap(),
+                d.early_terms(&weights).unwrap().unwrap(),
+            )
+        };
+        let (host_totals, host_terms, (n, host_early)) = sums(&mut host);
+        let (totals, terms, (device_n, early)) =
+            on_device(&device, &host, (width, height), rows, sums);
+        assert_eq!((n, device_n), (TRIAL_SPP, TRIAL_SPP));
         for k in 0..films.len() {
             for (what, device, host) in [
                 ("mean", totals[k].0, host_totals[k].0),
                 ("variance", totals[k].1, host_totals[k].1),
                 ("relative variance", terms[k].0, host_terms[k].0),
                 ("its square", terms[k].1, host_terms[k].1),
+                ("early relative variance", early[k].0, host_early[k].0),
+                ("its square", early[k].1, host_early[k].1),
             ] {
                 assert!(
                     close(device, host),
@@ -200,15 +239,24 @@ fn device_sums_match_the_f64_formulas() {
 fn a_round_kept_in_parts_sums_as_one_kept_whole() {
     let device = common::device();
     let mut rng = SmallRng::seed_from_u64(5);
+    // Every 2nd row from row 1 and every 2nd column from column 0 of 66: 33 x 10 pixels.
     let rows = Rows {
         start: 1,
         count: 10,
         step: 2,
+        col_step: 2,
     };
-    let films: Vec<HostFilm> = (0..2).map(|_| random_film(&mut rng, 330, 8)).collect();
+    let films: Vec<HostFilm> = (0..2).map(|_| random_film(&mut rng, 330, 32)).collect();
+    let early: Vec<HostFilm> = (0..2).map(|_| random_film(&mut rng, 330, 8)).collect();
+    let round = HostRound {
+        early: Some((8, early)),
+        ..plain(&films, 32)
+    };
     let sums = |parts| {
-        in_parts(&device, &films, 8, (33, 21), rows, parts, |d| {
-            (d.totals().unwrap(), d.terms(&[0.05, 0.07]).unwrap())
+        in_parts(&device, &round, (66, 21), rows, parts, |d| {
+            let weights = [0.05, 0.07];
+            let early = d.early_terms(&weights).unwrap();
+            (d.totals().unwrap(), d.terms(&weights).unwrap(), early)
         })
     };
     let whole = sums(1);
@@ -233,12 +281,14 @@ fn a_black_round_sums_to_zero() {
         start: 0,
         count: 3,
         step: 2,
+        col_step: 1,
     };
     let black = HostFilm {
         sum: vec![[0.0; 4]; 30],
         sum_odd: vec![[0.0; 4]; 30],
     };
-    let (totals, terms) = on_device(&device, &[black.clone(), black], 8, (10, 6), rows, |d| {
+    let round = plain(&[black.clone(), black], 8);
+    let (totals, terms) = on_device(&device, &round, (10, 6), rows, |d| {
         (d.totals().unwrap(), d.terms(&[0.1, 0.1]).unwrap())
     });
     assert_eq!(totals, [(0.0, 0.0); 2]);
@@ -264,26 +314,31 @@ fn film(pixels: usize, even: f32, odd: f32) -> HostFilm {
 /// `choose` over `films` (of one row, seconds each) with the host's sums and with the
 /// device's; the two choices agree, the host's is returned.
 fn choose_both(films: &[HostFilm], seconds: &[f64]) -> Choice {
+    choose_round(&plain(films, TRIAL_SPP), seconds, None)
+}
+
+/// [`choose_both`] for a round of its own (with early films where it has them), for a render
+/// of `render_samples`.
+fn choose_round(host: &HostRound, seconds: &[f64], render_samples: Option<u32>) -> Choice {
+    let films = &host.films;
     let pixels = films[0].sum.len();
     let round = Round {
         strategies: (0..films.len()).map(|k| strategy(k % 2 == 0)).collect(),
         seconds: seconds.to_vec(),
-        samples: TRIAL_SPP,
+        samples: host.samples,
+        render_samples,
         pixels,
     };
-    let mut host = HostRound {
-        films: films.to_vec(),
-        samples: TRIAL_SPP,
-    };
-    let on_host = strategy::choose(&round, &mut host, pixels as f64, 1.0).unwrap();
+    let on_host = strategy::choose(&round, &mut host.clone(), pixels as f64, 1.0).unwrap();
     let rows = Rows {
         start: 0,
         count: 1,
         step: 1,
+        col_step: 1,
     };
     let device = common::device();
     let size = (pixels as u32, 1);
-    let on_device = on_device(&device, films, TRIAL_SPP, size, rows, |d| {
+    let on_device = on_device(&device, host, size, rows, |d| {
         strategy::choose(&round, d, pixels as f64, 1.0).unwrap()
     });
     assert_eq!(
@@ -329,4 +384,48 @@ fn a_candidate_whose_mean_fell_short_missed_rare_paths_and_is_not_chosen() {
     assert!(choice.measured[1].missed_rare_paths, "{choice:?}");
     assert!(!choice.measured[0].missed_rare_paths);
     assert_eq!(choice.chosen, 0);
+}
+
+/// A film of `n` samples a pixel, mean 1 in every channel, whose relative variance of one
+/// sample (over a denominator of 1, before [`REL_EPSILON`]) is `v`: halves apart by d, (d / (n/2))^2 n/4 = v.
+fn of_variance(pixels: usize, n: u32, v: f64) -> HostFilm {
+    let d = (v * f64::from(n)).sqrt() as f32;
+    let half = n as f32 / 2.0;
+    film(pixels, half + d / 2.0, half - d / 2.0)
+}
+
+#[test]
+fn a_round_that_kept_its_first_samples_chooses_by_the_render_s_samples() {
+    // At 32 samples the second reads better (0.47 against 0.48), but from 8 samples the
+    // first's variance falls (0.60) and the second's rises (0.40): extrapolated to the
+    // render's 256 the first is ahead (strategy::extrapolate: 0.40 against 0.52).
+    let films = [of_variance(64, 32, 0.48), of_variance(64, 32, 0.47)];
+    let early = vec![of_variance(64, 8, 0.60), of_variance(64, 8, 0.40)];
+    let round = HostRound {
+        early: Some((TRIAL_SPP, early)),
+        ..plain(&films, 32)
+    };
+    let choice = choose_round(&round, &[1.0, 1.0], Some(256));
+    assert_eq!(choice.chosen, 0, "{choice:?}");
+    let m = &choice.measured;
+    let [(n1, v1), (n2, v2)] = m[0].extrapolated_from.unwrap();
+    assert_eq!((n1, n2), (8, 32));
+    // Over the denominator 1 + ε.
+    let over = |v: f64| v / (1.0 + f64::from(REL_EPSILON));
+    assert!(
+        (v1 - over(0.60)).abs() < 1e-6 && (v2 - over(0.48)).abs() < 1e-6,
+        "{m:?}"
+    );
+    let expected = strategy::extrapolate((8, v1, 0.0), (32, v2, 0.0), 256).0;
+    assert!((m[0].relative_variance - expected).abs() < 1e-12, "{m:?}");
+    assert!(m[0].relative_variance < m[1].relative_variance);
+    // The same round for a render of unknown samples (a time limit), or without its early
+    // films: the round's own figures, and the second.
+    let choice = choose_round(&round, &[1.0, 1.0], None);
+    assert_eq!(choice.chosen, 1);
+    assert!(choice.measured[0].extrapolated_from.is_none());
+    assert_eq!(
+        choose_round(&plain(&films, 32), &[1.0, 1.0], Some(256)).chosen,
+        1
+    );
 }

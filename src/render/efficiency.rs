@@ -210,6 +210,8 @@ mod tests {
             relative_variance: 0.5,
             relative_variance_se: 0.01,
             missed_rare_paths: false,
+            samples: 8,
+            extrapolated_from: None,
             dropped: false,
         };
         let choice = crate::render::strategy::Choice {

@@ -325,22 +325,38 @@ impl Estimator {
 }
 
 /// A set of image rows a launch covers: `count` rows from `start`, every `step`-th (row 0 is the
-/// bottom of the image; kernels/pathtracer.cl `render_pass`).
+/// bottom of the image; kernels/pathtracer.cl `render_pass`), and on them every `col_step`-th
+/// pixel from [`Rows::first_column`] (a strategy trial's lattice; 1 elsewhere).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Rows {
     pub start: u32,
     pub count: u32,
     pub step: u32,
+    pub col_step: u32,
 }
 
 impl Rows {
-    /// `count` consecutive rows from `start`.
+    /// `count` consecutive rows from `start`, every pixel.
     fn band(start: u32, count: u32) -> Rows {
         Rows {
             start,
             count,
             step: 1,
+            col_step: 1,
         }
+    }
+
+    /// The first column taken: the middle of the first `col_step` (as a trial's first row is
+    /// the middle of its first `step`).
+    pub fn first_column(&self) -> u32 {
+        (self.col_step.max(1) - 1) / 2
+    }
+
+    /// The columns taken on an image `width` wide.
+    pub fn columns(&self, width: u32) -> u32 {
+        width
+            .saturating_sub(self.first_column())
+            .div_ceil(self.col_step.max(1))
     }
 }
 
@@ -599,6 +615,7 @@ impl<'d> Renderer<'d> {
                 .arg_named("row_start", 0u32)
                 .arg_named("row_count", 0u32)
                 .arg_named("row_step", 1u32)
+                .arg_named("col_step", 1u32)
                 .build()
                 .map_err(|e| Error::opencl("creating the render kernel", e))?;
             estimators.push(Estimator {
@@ -727,6 +744,7 @@ impl<'d> Renderer<'d> {
         set("row_start", rows.start)?;
         set("row_count", rows.count)?;
         set("row_step", rows.step)?;
+        set("col_step", rows.col_step.max(1))?;
         // SAFETY: the kernel's buffers are alive (owned by self) and sized for the whole
         // image; the kernel bounds-checks the padded work-items, and every row of `rows` is in
         // the image.
@@ -734,7 +752,7 @@ impl<'d> Renderer<'d> {
             kernel
                 .cmd()
                 .global_work_size([
-                    round_up(self.width() as usize),
+                    round_up(rows.columns(self.width()) as usize),
                     round_up(rows.count as usize),
                 ])
                 .local_work_size([GROUP, GROUP])
@@ -795,9 +813,9 @@ impl<'d> Renderer<'d> {
         let height = self.height();
         let step = 8.min(height);
         let rows = Rows {
-            start: 0,
             count: height.div_ceil(step),
             step,
+            ..Rows::band(0, 0)
         };
         let seconds = self.render_rows(rows, self.options.first_sample, 1)?;
         self.clear_film()?;
@@ -815,7 +833,7 @@ impl<'d> Renderer<'d> {
             let part = Rows {
                 start: rows.start + done * rows.step,
                 count: n,
-                step: rows.step,
+                ..rows
             };
             let t0 = Instant::now();
             self.launch(part, sample_start, count)?;
@@ -855,6 +873,9 @@ impl<'d> Renderer<'d> {
         } else {
             first
         };
+        // A CPU's first round takes the samples that extrapolate, on fewer rows.
+        let least = strategy::least_trial_samples(&self.device.description.kind);
+        let first = strategy::with_least_samples(first, least, (self.width(), height));
         let (scouted, _) = self.trial_round(&all, first, &start)?;
         let survivors = scouted.survivors();
         let full = self.options.spp.and_then(|spp| {
@@ -869,7 +890,7 @@ impl<'d> Renderer<'d> {
                 // The last film rendered is still there: the winner's when it rendered last
                 // (survivors() puts the scouts' best last) on every row, in one part. The
                 // render goes on from it.
-                let whole = plan.row_step == 1 && parts == 1;
+                let whole = plan.row_step == 1 && plan.col_step == 1 && parts == 1;
                 if whole && survivors.last() == Some(&choice.chosen) {
                     choice.film_samples = plan.samples;
                 }
@@ -889,8 +910,9 @@ impl<'d> Renderer<'d> {
     /// render the plan's rows and samples, in interleaved parts on a CPU
     /// ([`strategy::timing_parts`]: every candidate renders a part, in the order of `which`,
     /// before the next part), each part kept on the device (render/trial.rs) before the film
-    /// is cleared for the next. The film is left holding the last render: with one part, the
-    /// last candidate's whole round.
+    /// is cleared for the next; where the round extrapolates ([`strategy::early_samples`]),
+    /// kept after its first samples too. The film is left holding the last render: with one
+    /// part, the last candidate's whole round.
     fn trial_round(
         &mut self,
         which: &[usize],
@@ -904,6 +926,7 @@ impl<'d> Renderer<'d> {
             start: first_row,
             count: (height - first_row).div_ceil(step),
             step,
+            col_step: plan.col_step.clamp(1, width.max(1)),
         };
         let parts = strategy::timing_parts(&self.device.description.kind).min(rows.count);
         let strategies: Vec<Strategy> = which.iter().map(|&i| self.candidates[i]).collect();
@@ -912,7 +935,9 @@ impl<'d> Renderer<'d> {
             .take()
             .expect("trial kernels wherever there are several candidates");
         let round = (|| {
-            let mut kept = kernels.round(rows, strategies.len(), plan.samples)?;
+            let early = strategy::early_samples(plan.samples, self.options.spp);
+            let mut kept = kernels.round(rows, strategies.len(), plan.samples, early)?;
+            let first = self.options.first_sample;
             let mut timed = vec![Vec::new(); strategies.len()];
             for part in 0..parts {
                 let part_rows = trial::part(rows, part, parts);
@@ -921,8 +946,14 @@ impl<'d> Renderer<'d> {
                         self.clear_film()?;
                     }
                     self.select(candidate)?;
-                    let seconds =
-                        self.render_rows(part_rows, self.options.first_sample, plan.samples)?;
+                    let mut seconds = 0.0;
+                    let mut done = 0;
+                    if let Some(n) = early {
+                        seconds += self.render_rows(part_rows, first, n)?;
+                        kept.keep_early(k, part, parts)?;
+                        done = n;
+                    }
+                    seconds += self.render_rows(part_rows, first + done, plan.samples - done)?;
                     timed[k].push((seconds, part_rows.count));
                     // The trial's few samples (at most 64) need no compensation: `sum` alone
                     // is exact enough.
@@ -936,6 +967,7 @@ impl<'d> Renderer<'d> {
                     .map(|t| strategy::robust_seconds(t, rows.count))
                     .collect(),
                 samples: plan.samples,
+                render_samples: self.options.spp,
                 pixels: kept.pixels(),
             };
             let pixels = width as f64 * height as f64;

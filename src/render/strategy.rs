@@ -91,6 +91,106 @@ const MIN_SCOUT_PATHS_CPU: f64 = (1 << 13) as f64;
 /// launches again.
 const FULL_ROUND_GAIN: f64 = 2.0;
 
+/// A trial round of at least this many times [`TRIAL_SPP`] samples a pixel also measures each
+/// candidate after its first TRIAL_SPP samples, on the same pixels, and extrapolates the two to
+/// the render's samples ([`early_samples`], [`extrapolate`]). Farther apart, the step beyond the
+/// round is at most the distance between the two (k below 0.65 for any render); closer, a
+/// factor that grows without bound (samples twice the first: k up to 2.4).
+pub const EXTRAPOLATION_SPAN: u32 = 4;
+
+/// The samples a pixel of a CPU device's trial rounds, at the least ([`least_trial_samples`]):
+/// enough to extrapolate. Its launches cost no latency worth a mention (about 0.1 ms on PoCL),
+/// so fewer pixels with more samples cost it nothing, while a CPU's short renders afford no
+/// second round (BENCHMARKS.md).
+const LEAST_TRIAL_SPP_CPU: u32 = EXTRAPOLATION_SPAN * TRIAL_SPP;
+
+/// The exponent p of the model of how the relative variance of one sample, V(n) = n Var(mean
+/// of n), changes with the samples a pixel n: V(n) = a + b n^-p. Owen-scrambled Sobol points
+/// (kernels/rng.h) integrate the camera's and the first bounces' dimensions, where most of the
+/// variance lies, with the error of stratified samples; over a pixel crossed by edges that is
+/// a variance of the mean O(n^-1.5) (Mitchell, "Consequences of stratified sampling in
+/// graphics", SIGGRAPH 1996), so b n^-0.5, while the Philox dimensions beyond add a, plain
+/// Monte Carlo's constant. Why it matters: V falls by different shares for different settings
+/// (PoCL, meshes at 160x120, relative variance per sample at 8 and 256 samples: light sampling
+/// off, roulette below 0.3, 0.475 and 0.357; on, 0.3, 0.301 and 0.246), so that 8 samples read
+/// them tied where the render has the first 8% ahead. Fitted through 8 and 32 samples and
+/// extrapolated to 256, p = 0.5 gave 0.366 and 0.248; p = 1, 0.389 and 0.259 (BENCHMARKS.md).
+/// The same form follows a relative variance that grows with n (b < 0): the common
+/// denominator includes the candidate's own samples, which hides some of its variance where
+/// few samples carry it; roulette below 1 read 0.51, 0.61 and 0.65 at 8, 32 and 256 samples on
+/// meshes, whose line in n^-0.5 through the first two gives 0.67 at 256.
+const QUASI_RANDOM_EXPONENT: f64 = 0.5;
+
+/// The samples a pixel after which a trial round of `samples` also keeps each candidate's film
+/// for a render of `spp` (`None`: a time limit or a target error), where it extrapolates:
+/// [`TRIAL_SPP`], where the round takes at least [`EXTRAPOLATION_SPAN`] times that and the
+/// render more samples than the round.
+pub fn early_samples(samples: u32, spp: Option<u32>) -> Option<u32> {
+    let far = samples >= EXTRAPOLATION_SPAN * TRIAL_SPP;
+    (far && spp.is_some_and(|n| n > samples)).then_some(TRIAL_SPP)
+}
+
+/// The least samples a pixel of a trial round on a device of `kind` (an OpenCL device type as
+/// `clpt devices` lists it: "CPU", "GPU", ...): on a GPU [`TRIAL_SPP`], which keeps a round's
+/// pixels enough to fill it; on a CPU [`LEAST_TRIAL_SPP_CPU`].
+pub fn least_trial_samples(kind: &str) -> u32 {
+    if kind == "CPU" {
+        LEAST_TRIAL_SPP_CPU
+    } else {
+        TRIAL_SPP
+    }
+}
+
+/// `plan` with at least `least` samples a pixel (a multiple of [`TRIAL_SPP`], at most
+/// [`MAX_TRIAL_SPP`]) at about the same cost on an image of `width` x `height`: its pixels
+/// thinned out by the same factor f, in columns by the whole part of √f and in rows by the
+/// rest, so that they stay spread over the image (a CPU's scouts at 32 samples on every 52nd
+/// row of 160x120 kept 2 rows, which read light sampling's variance a quarter above the
+/// image's); never fewer than one row or column.
+pub fn with_least_samples(plan: TrialPlan, least: u32, (width, height): (u32, u32)) -> TrialPlan {
+    if plan.samples >= least {
+        return plan;
+    }
+    let factor = f64::from(least) / f64::from(plan.samples.max(1));
+    let columns = factor.sqrt().floor().max(1.0);
+    let rows = factor / columns;
+    let step = |step: u32, by: f64, most: u32| {
+        (f64::from(step) * by)
+            .round()
+            .clamp(1.0, f64::from(most.max(1))) as u32
+    };
+    TrialPlan {
+        row_step: step(plan.row_step, rows, height),
+        col_step: step(plan.col_step, columns, width),
+        samples: least.min(MAX_TRIAL_SPP),
+    }
+}
+
+/// The relative variance of one sample at `n` samples a pixel, and its standard error, from
+/// those measured at `n1` and `n2` > `n1` samples (each `(n, v, se)`): the line in n^-p
+/// ([`QUASI_RANDOM_EXPONENT`]) through the two, at n, but never below the pure power law
+/// through the second (a = 0: no variance left that the samples do not stratify), nor for n
+/// at most n2 other than the second.
+pub fn extrapolate(
+    (n1, v1, se1): (u32, f64, f64),
+    (n2, v2, se2): (u32, f64, f64),
+    n: u32,
+) -> (f64, f64) {
+    let g = |n: u32| f64::from(n).powf(-QUASI_RANDOM_EXPONENT);
+    if n <= n2 || n2 <= n1 {
+        return (v2, se2);
+    }
+    // v = v2 + k (v2 - v1): k the step beyond n2 in units of the step from n1 to n2.
+    let k = (g(n2) - g(n)) / (g(n1) - g(n2));
+    let line = v2 + k * (v2 - v1);
+    let floor = v2 * g(n) / g(n2);
+    if line >= floor {
+        (line, ((1.0 + k) * se2).hypot(k * se1))
+    } else {
+        (floor, se2 * g(n) / g(n2))
+    }
+}
+
 /// Parts a CPU device's trial round renders in ([`timing_parts`]).
 const CPU_TIMING_PARTS: u32 = 3;
 
@@ -243,8 +343,10 @@ pub fn candidates(light: LightSampling, roulette: Roulette, has_lights: bool) ->
 /// Which rows and how many samples each candidate renders in the trial.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TrialPlan {
-    /// Every `row_step`-th row takes part.
+    /// Every `row_step`-th row takes part...
     pub row_step: u32,
+    /// ...and every `col_step`-th pixel on it (render/mod.rs, `Rows`).
+    pub col_step: u32,
     /// Samples per pixel, a multiple of [`TRIAL_SPP`] (whole pairs of groups of four).
     pub samples: u32,
 }
@@ -252,7 +354,7 @@ pub struct TrialPlan {
 impl TrialPlan {
     /// Full-image samples per pixel.
     pub fn cost(&self) -> f64 {
-        f64::from(self.samples) / f64::from(self.row_step)
+        f64::from(self.samples) / (f64::from(self.row_step) * f64::from(self.col_step))
     }
 }
 
@@ -289,15 +391,17 @@ pub fn plan_for_budget(budget: f64, height: u32) -> TrialPlan {
     };
     TrialPlan {
         row_step: row_step.clamp(1, height.max(1)),
+        col_step: 1,
         samples,
     }
 }
 
 /// The plan of the full round after scouting, or `None` when it would take less than
-/// [`FULL_ROUND_GAIN`] times the scouting round's (`scouted`) samples: the `survivors` share [`FULL_ROUND_SHARE`] of the time a render
-/// of `spp` samples would take with the fastest-converging of them (by the scouts' timings),
-/// so the round costs the same share however slow the losers are. It spends that on more
-/// samples rather than on more than about [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]).
+/// [`FULL_ROUND_GAIN`] times the scouting round's (`scouted`) samples: the `survivors` share
+/// [`FULL_ROUND_SHARE`] of the time a render of `spp` samples would take with the
+/// fastest-converging of them (by the scouts' timings), so the round costs the same share
+/// however slow the losers are. It spends that on more samples rather than on more than about
+/// [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]).
 pub fn full_round_plan(
     scout: &Choice,
     scouted: TrialPlan,
@@ -343,6 +447,7 @@ pub fn plan_on_rows(budget: f64, step: u32, height: u32) -> TrialPlan {
     let groups = (budget * f64::from(step) / f64::from(TRIAL_SPP)) as u32;
     TrialPlan {
         row_step: step,
+        col_step: 1,
         samples: (groups.max(1) * TRIAL_SPP).min(MAX_TRIAL_SPP),
     }
 }
@@ -389,6 +494,11 @@ pub struct Measured {
     pub missed_rare_paths: bool,
     /// Dropped after the scouting round: these figures are that round's.
     pub dropped: bool,
+    /// Samples per pixel of the round these figures come from.
+    pub samples: u32,
+    /// Where `relative_variance` is extrapolated to the render's samples ([`extrapolate`]):
+    /// the two sample counts and the relative variances the round measured at each.
+    pub extrapolated_from: Option<[(u32, f64); 2]>,
 }
 
 impl Measured {
@@ -425,6 +535,8 @@ impl Choice {
                 relative_variance_se: f64::NAN,
                 missed_rare_paths: false,
                 dropped: false,
+                samples: 0,
+                extrapolated_from: None,
             }],
             chosen: 0,
             seconds: 0.0,
@@ -455,7 +567,7 @@ impl Choice {
     }
 
     /// The choice of a two-round trial: `full`'s figures for the candidates it measured
-    /// (`survivors`, indices into `scout.measured`), the scouting round's for the dropped.
+    /// (`survivors`, indices into `scout.measured`), the scouts' for the dropped.
     pub fn merge(scout: &Choice, survivors: &[usize], full: Choice) -> Choice {
         let mut measured: Vec<Measured> = scout
             .measured
@@ -491,11 +603,15 @@ impl Choice {
             .iter()
             .enumerate()
             .map(|(i, m)| {
+                let extrapolated = m.extrapolated_from.map_or(String::new(), |[(n1, v1), (n2, v2)]| {
+                    format!(" extrapolated from {v1:.3e} at {n1} samples and {v2:.3e} at {n2}")
+                });
                 format!(
-                    "{}: relMSE x s {:.3e} (relative variance {:.3e} per sample, {:.4} us per path){}{}{}",
+                    "{}: relMSE x s {:.3e} (relative variance {:.3e} per sample{}, {:.4} us per path){}{}{}",
                     m.strategy,
                     m.efficiency(self.pixels),
                     m.relative_variance,
+                    extrapolated,
                     m.seconds_per_sample * 1e6,
                     if m.missed_rare_paths {
                         ", image mean too low: rare paths missed"
@@ -534,7 +650,15 @@ pub trait TrialSums {
     /// [`REL_EPSILON`](super::metrics::REL_EPSILON), d the films' sums
     /// weighted by `weights`) and of its square.
     fn terms(&mut self, weights: &[f64]) -> ClptResult<Vec<(f64, f64)>>;
+    /// Where the round also kept each film after its first samples: their count, and per
+    /// film the sums of [`Self::terms`] over the same denominator (the final films', weighted
+    /// by `weights`).
+    fn early_terms(&mut self, weights: &[f64]) -> ClptResult<Option<EarlyTerms>>;
 }
+
+/// [`TrialSums::early_terms`]: the films' first samples a pixel and, per film, the sums of
+/// [`TrialSums::terms`] over them.
+pub type EarlyTerms = (u32, Vec<(f64, f64)>);
 
 /// What a trial round measured besides its sums.
 #[derive(Clone, Debug)]
@@ -545,6 +669,9 @@ pub struct Round {
     pub seconds: Vec<f64>,
     /// Samples per pixel each rendered.
     pub samples: u32,
+    /// Samples per pixel of the render the figures are extrapolated to, where the round kept
+    /// its films early too ([`TrialSums::early_terms`]).
+    pub render_samples: Option<u32>,
     /// The trial pixels each rendered.
     pub pixels: usize,
 }
@@ -624,39 +751,49 @@ pub fn choose(
         .map(|&(mean, se)| mean < ref_mean - MISSED_SIGMAS * se.hypot(ref_se))
         .collect();
     let weights = denominator_weights(&totals, &missed, round.samples);
-    let terms = sums.terms(&weights)?;
     let np = round.pixels.max(1) as f64;
+    // Per film: the mean relative variance over the trial pixels and its standard error.
+    let mean_and_se = |sums: Vec<(f64, f64)>| -> Vec<(f64, f64)> {
+        sums.into_iter()
+            .map(|(rel, rel_sq)| {
+                let mean = rel / np;
+                (mean, ((rel_sq / np - mean * mean).max(0.0) / np).sqrt())
+            })
+            .collect()
+    };
+    let terms = mean_and_se(sums.terms(&weights)?);
+    let early = match (sums.early_terms(&weights)?, round.render_samples) {
+        (Some((n, early)), Some(spp)) => Some((n, mean_and_se(early), spp)),
+        _ => None,
+    };
     let measured: Vec<Measured> = round
         .strategies
         .iter()
         .zip(&round.seconds)
-        .zip(terms)
+        .zip(&terms)
         .enumerate()
-        .map(|(i, ((&strategy, &seconds), (rel, rel_sq)))| {
-            let mean = rel / np;
+        .map(|(i, ((&strategy, &seconds), &(v, se)))| {
+            let ((relative_variance, relative_variance_se), extrapolated_from) = match &early {
+                Some((n, early, spp)) => {
+                    let (v1, se1) = early[i];
+                    let at_spp = extrapolate((*n, v1, se1), (round.samples, v, se), *spp);
+                    (at_spp, Some([(*n, v1), (round.samples, v)]))
+                }
+                None => ((v, se), None),
+            };
             Measured {
                 strategy,
                 seconds_per_sample: seconds / (f64::from(round.samples) * np),
-                relative_variance: mean,
-                relative_variance_se: ((rel_sq / np - mean * mean).max(0.0) / np).sqrt(),
+                relative_variance,
+                relative_variance_se,
                 missed_rare_paths: missed[i],
                 dropped: false,
+                samples: round.samples,
+                extrapolated_from,
             }
         })
         .collect();
-    // The least relMSE x seconds among the trusted; ties, and candidates that could not be
-    // measured (a non-finite figure), keep the earlier.
-    let mut chosen = 0;
-    for (i, m) in measured.iter().enumerate() {
-        let (e, best) = (m.efficiency(pixels), measured[chosen].efficiency(pixels));
-        let trusted = !m.missed_rare_paths;
-        if trusted
-            && e.is_finite()
-            && (measured[chosen].missed_rare_paths || !best.is_finite() || e < best)
-        {
-            chosen = i;
-        }
-    }
+    let chosen = pick(&measured, pixels);
     Ok(Choice {
         measured,
         chosen,
@@ -664,6 +801,24 @@ pub fn choose(
         pixels,
         film_samples: 0,
     })
+}
+
+/// The index of the least relMSE × seconds among the trusted candidates that were not dropped
+/// (for `pixels` pixels); ties, and candidates that could not be measured (a non-finite
+/// figure), keep the earlier.
+fn pick(measured: &[Measured], pixels: f64) -> usize {
+    let eligible = |m: &Measured| !m.missed_rare_paths && !m.dropped;
+    let mut chosen = 0;
+    for (i, m) in measured.iter().enumerate() {
+        let (e, best) = (m.efficiency(pixels), measured[chosen].efficiency(pixels));
+        if eligible(m)
+            && e.is_finite()
+            && (!eligible(&measured[chosen]) || !best.is_finite() || e < best)
+        {
+            chosen = i;
+        }
+    }
+    chosen
 }
 
 impl fmt::Display for Choice {
@@ -749,6 +904,8 @@ mod tests {
             relative_variance_se: se,
             missed_rare_paths: false,
             dropped: false,
+            samples: 8,
+            extrapolated_from: None,
         }
     }
 
@@ -811,6 +968,61 @@ mod tests {
         assert_eq!(merged.measured[1].relative_variance, 0.9);
         assert_eq!(merged.measured[3].relative_variance, 1.6);
         assert_eq!(merged.seconds, 2.0);
+    }
+
+    #[test]
+    fn the_relative_variance_is_extrapolated_along_the_model() {
+        // V(n) = 0.3 + 0.5 n^-0.5 (the model's form): exact from any two counts.
+        let v = |n: u32| 0.3 + 0.5 / f64::from(n).sqrt();
+        let (at_256, se) = extrapolate((8, v(8), 0.01), (32, v(32), 0.02), 256);
+        assert!((at_256 - v(256)).abs() < 1e-12);
+        // k = (32^-0.5 - 256^-0.5) / (8^-0.5 - 32^-0.5) = 0.646...: the standard error grows by
+        // (1 + k) on the second round's and k on the first's.
+        let k = (1.0 / 32f64.sqrt() - 1.0 / 16.0) / (1.0 / 8f64.sqrt() - 1.0 / 32f64.sqrt());
+        assert!((se - ((1.0 + k) * 0.02).hypot(k * 0.01)).abs() < 1e-12);
+        // A variance that grows with the samples (rare paths found more often) grows on.
+        assert!(extrapolate((8, 0.5, 0.0), (32, 0.6, 0.0), 256).0 > 0.6);
+        // Never below the power law through the second: a fall of 8 to 1 would reach 0.
+        let (floor, _) = extrapolate((8, 8.0, 0.0), (32, 1.0, 0.0), 256);
+        assert!((floor - 1.0 * (32f64 / 256.0).sqrt()).abs() < 1e-12);
+        // At or below the second round's samples, and for counts not increasing: the second.
+        assert_eq!(extrapolate((8, 0.5, 0.1), (32, 0.4, 0.2), 32), (0.4, 0.2));
+        assert_eq!(extrapolate((32, 0.5, 0.1), (32, 0.4, 0.2), 256), (0.4, 0.2));
+    }
+
+    #[test]
+    fn rounds_of_four_times_the_first_samples_extrapolate() {
+        // From 32 samples a pixel on, where the render takes more: kept after the first 8.
+        assert_eq!(early_samples(32, Some(256)), Some(8));
+        assert_eq!(early_samples(64, Some(65)), Some(8));
+        assert_eq!(early_samples(24, Some(256)), None);
+        assert_eq!(early_samples(32, Some(32)), None);
+        assert_eq!(early_samples(32, None), None);
+        // A CPU's rounds take 32 samples at the least, on rows thinned out alike: every 4th
+        // row at 8 samples becomes every 16th at 32; never fewer than one row.
+        assert_eq!(
+            (least_trial_samples("CPU"), least_trial_samples("GPU")),
+            (32, 8)
+        );
+        let plan = |row_step, col_step, samples| TrialPlan {
+            row_step,
+            col_step,
+            samples,
+        };
+        let size = (160, 120);
+        assert_eq!(with_least_samples(plan(4, 1, 8), 32, size), plan(8, 2, 32));
+        assert_eq!(
+            with_least_samples(plan(13, 1, 8), 32, size),
+            plan(26, 2, 32)
+        );
+        assert_eq!(
+            with_least_samples(plan(80, 1, 8), 32, size),
+            plan(120, 2, 32)
+        );
+        assert_eq!(with_least_samples(plan(1, 1, 8), 64, size), plan(4, 2, 64));
+        assert_eq!(with_least_samples(plan(2, 1, 48), 32, size), plan(2, 1, 48));
+        assert_eq!(with_least_samples(plan(3, 1, 8), 8, size), plan(3, 1, 8));
+        assert_eq!(plan(8, 2, 32).cost(), plan(4, 1, 8).cost());
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! over them had cost a fast scene more than the trial's renders.
 
 use super::Rows;
-use super::strategy::TrialSums;
+use super::strategy::{EarlyTerms, TrialSums};
 use crate::device::Device;
 use crate::device::program::{self, BuiltProgram, KernelSources};
 use crate::error::{Error, Result};
@@ -26,6 +26,7 @@ pub fn part(rows: Rows, part: u32, parts: u32) -> Rows {
         start: rows.start + part * rows.step,
         count: rows.count.saturating_sub(part).div_ceil(parts),
         step: rows.step * parts,
+        ..rows
     }
 }
 
@@ -76,6 +77,8 @@ impl TrialKernels {
             .arg_named("kept_first", 0u32)
             .arg_named("kept_step", 1u32)
             .arg_named("slot", 0u32)
+            .arg_named("col_step", 1u32)
+            .arg_named("columns", 0u32)
             .arg_named("kept", placeholder)
             .build()
             .map_err(&bad)?;
@@ -92,7 +95,8 @@ impl TrialKernels {
             if terms {
                 builder
                     .arg_named("weights", placeholder)
-                    .arg(super::metrics::REL_EPSILON);
+                    .arg(super::metrics::REL_EPSILON)
+                    .arg_named("base", 0u32);
             }
             builder.arg_named("out", placeholder).build().map_err(&bad)
         };
@@ -114,9 +118,16 @@ impl TrialKernels {
     }
 
     /// A round of `films` candidates of `samples` samples a pixel on `rows`: room on the
-    /// device for every candidate's rows.
-    pub fn round(&self, rows: Rows, films: usize, samples: u32) -> Result<KeptRound<'_>> {
-        let pixels = self.width as usize * rows.count as usize;
+    /// device for every candidate's rows, twice where the round also keeps them after their
+    /// first `early` samples ([`KeptRound::keep_early`]).
+    pub fn round(
+        &self,
+        rows: Rows,
+        films: usize,
+        samples: u32,
+        early: Option<u32>,
+    ) -> Result<KeptRound<'_>> {
+        let pixels = rows.columns(self.width) as usize * rows.count as usize;
         let chunks = pixels.div_ceil(CHUNK as usize);
         let bad = fail("allocating the trial's buffers");
         let buffer = |len: usize| {
@@ -126,14 +137,16 @@ impl TrialKernels {
                 .build()
                 .map_err(&bad)
         };
+        let slots = films * if early.is_some() { 2 } else { 1 };
         Ok(KeptRound {
             kernels: self,
             rows,
             films,
             samples,
+            early,
             pixels,
             chunks,
-            kept: buffer(films * 2 * pixels * 4)?,
+            kept: buffer(slots * 2 * pixels * 4)?,
             out: buffer(chunks * films * 2)?,
             weights: buffer(films)?,
         })
@@ -146,6 +159,8 @@ pub struct KeptRound<'k> {
     rows: Rows,
     films: usize,
     samples: u32,
+    /// Samples a pixel of the films kept early (in slots `films` on), if any.
+    early: Option<u32>,
     pixels: usize,
     chunks: usize,
     kept: ocl::Buffer<f32>,
@@ -163,6 +178,21 @@ impl KeptRound<'_> {
     /// place (enqueued: the next command on the queue sees them).
     pub fn keep(&mut self, slot: usize, part: u32, parts: u32) -> Result<()> {
         assert!(slot < self.films, "slot {slot} of {} films", self.films);
+        self.keep_in(slot, part, parts)
+    }
+
+    /// As [`Self::keep`], for the film after the candidate's first `early` samples (a round
+    /// made with them).
+    pub fn keep_early(&mut self, slot: usize, part: u32, parts: u32) -> Result<()> {
+        assert!(
+            self.early.is_some() && slot < self.films,
+            "early slot {slot} of {} films",
+            self.films
+        );
+        self.keep_in(self.films + slot, part, parts)
+    }
+
+    fn keep_in(&mut self, slot: usize, part: u32, parts: u32) -> Result<()> {
         let rows = self::part(self.rows, part, parts);
         let k = &self.kernels.keep;
         let bad = fail("keeping the trial's rows");
@@ -173,37 +203,44 @@ impl KeptRound<'_> {
         k.set_arg("kept_first", part).map_err(&bad)?;
         k.set_arg("kept_step", parts).map_err(&bad)?;
         k.set_arg("slot", slot as u32).map_err(&bad)?;
+        let columns = rows.columns(self.kernels.width);
+        k.set_arg("col_step", rows.col_step.max(1)).map_err(&bad)?;
+        k.set_arg("columns", columns).map_err(&bad)?;
         k.set_arg("kept", &self.kept).map_err(&bad)?;
         if rows.count == 0 {
             return Ok(());
         }
         let round_up = |n: u32| n.div_ceil(8) as usize * 8;
         // SAFETY: the film holds every row of the round (the renderer's trial rows lie in the
-        // image); `kept` holds `films` slots of the round's rows, and part `part` of them are
-        // kept rows part + i * parts < rows.count; the kernel skips padded work-items.
+        // image) and every column it takes (fewer than `columns(width)` steps from the first);
+        // `kept` holds `films` slots of the round's pixels (twice that with early films: `slot`
+        // is below that), and part `part` of them are kept rows part + i * parts < rows.count;
+        // the kernel skips padded work-items.
         unsafe {
             k.cmd()
-                .global_work_size([round_up(self.kernels.width), round_up(rows.count)])
+                .global_work_size([round_up(columns), round_up(rows.count)])
                 .local_work_size([8, 8])
                 .enq()
         }
         .map_err(&bad)
     }
 
-    /// Runs a reduction and adds its chunks' sums in f64, in order: per film, two sums.
-    fn reduce(&self, kernel: &ocl::Kernel) -> Result<Vec<(f64, f64)>> {
+    /// Runs a reduction over the films of `samples` samples a pixel and adds its chunks' sums
+    /// in f64, in order: per film, two sums.
+    fn reduce(&self, kernel: &ocl::Kernel, samples: u32) -> Result<Vec<(f64, f64)>> {
         let bad = fail("reducing the trial's rows");
         kernel.set_arg("kept", &self.kept).map_err(&bad)?;
         kernel.set_arg("pixels", self.pixels as u32).map_err(&bad)?;
         kernel.set_arg("films", self.films as u32).map_err(&bad)?;
-        kernel.set_arg("samples", self.samples).map_err(&bad)?;
+        kernel.set_arg("samples", samples).map_err(&bad)?;
         kernel.set_arg("out", &self.out).map_err(&bad)?;
         let mut sums = vec![(0.0, 0.0); self.films];
         if self.chunks == 0 {
             return Ok(sums);
         }
-        // SAFETY: `kept` holds `films` slots of `pixels` pixels (two float4 each), `out` two
-        // floats per chunk and film, `weights` one per film; one group a chunk.
+        // SAFETY: `kept` holds `films` slots of `pixels` pixels (two float4 each), twice that
+        // where the round kept early films (the only reductions from slot `films` on), `out`
+        // two floats per chunk and film, `weights` one per film; one group a chunk.
         unsafe {
             kernel
                 .cmd()
@@ -224,19 +261,37 @@ impl KeptRound<'_> {
     }
 }
 
-impl TrialSums for KeptRound<'_> {
-    fn totals(&mut self) -> Result<Vec<(f64, f64)>> {
-        self.reduce(&self.kernels.totals)
-    }
-
-    fn terms(&mut self, weights: &[f64]) -> Result<Vec<(f64, f64)>> {
+impl KeptRound<'_> {
+    /// The relative variances' sums of the films from slot `base` on, of `samples` samples.
+    fn terms_from(
+        &mut self,
+        weights: &[f64],
+        base: usize,
+        samples: u32,
+    ) -> Result<Vec<(f64, f64)>> {
         let bad = fail("writing the trial's weights");
         let weights: Vec<f32> = weights.iter().map(|&w| w as f32).collect();
         self.weights.write(&weights).enq().map_err(&bad)?;
-        self.kernels
-            .terms
-            .set_arg("weights", &self.weights)
-            .map_err(&bad)?;
-        self.reduce(&self.kernels.terms)
+        let terms = &self.kernels.terms;
+        terms.set_arg("weights", &self.weights).map_err(&bad)?;
+        terms.set_arg("base", base as u32).map_err(&bad)?;
+        self.reduce(terms, samples)
+    }
+}
+
+impl TrialSums for KeptRound<'_> {
+    fn totals(&mut self) -> Result<Vec<(f64, f64)>> {
+        self.reduce(&self.kernels.totals, self.samples)
+    }
+
+    fn terms(&mut self, weights: &[f64]) -> Result<Vec<(f64, f64)>> {
+        self.terms_from(weights, 0, self.samples)
+    }
+
+    fn early_terms(&mut self, weights: &[f64]) -> Result<Option<EarlyTerms>> {
+        match self.early {
+            None => Ok(None),
+            Some(n) => Ok(Some((n, self.terms_from(weights, self.films, n)?))),
+        }
     }
 }

@@ -2,7 +2,7 @@
 //! `clpt::render::strategy::TrialSums`): the oracle the device's sums are held against.
 
 use clpt::render::metrics::REL_EPSILON;
-use clpt::render::strategy::TrialSums;
+use clpt::render::strategy::{EarlyTerms, TrialSums};
 
 /// One candidate's trial film: per trial pixel, the sum of its samples and the sum of those of
 /// its odd groups of four (red, green, blue and a fourth value the trial does not read).
@@ -12,10 +12,42 @@ pub struct HostFilm {
     pub sum_odd: Vec<[f32; 4]>,
 }
 
-/// A round's films, all of `samples` samples a pixel.
+/// A round's films, all of `samples` samples a pixel; where the round extrapolates, its films
+/// after their first samples too (that count, a film per candidate).
+#[derive(Clone)]
 pub struct HostRound {
     pub films: Vec<HostFilm>,
     pub samples: u32,
+    pub early: Option<(u32, Vec<HostFilm>)>,
+}
+
+impl HostRound {
+    /// The sums of `terms` for `films` of `n` samples (the round's own or its early ones),
+    /// over the denominator of the round's films weighted by `weights`.
+    fn terms_of(&self, films: &[HostFilm], n: u32, weights: &[f64]) -> Vec<(f64, f64)> {
+        let n = f64::from(n);
+        let pixels = self.films.first().map_or(0, |f| f.sum.len());
+        let mut sums = vec![(0.0f64, 0.0f64); films.len()];
+        for p in 0..pixels {
+            let mut denominator = [0.0f64; 3];
+            for (film, &w) in self.films.iter().zip(weights) {
+                for (d, &v) in denominator.iter_mut().zip(&film.sum[p][..3]) {
+                    *d += w * f64::from(v);
+                }
+            }
+            let denominator = denominator.map(|m| m * m + f64::from(REL_EPSILON));
+            for (film, sum) in films.iter().zip(&mut sums) {
+                let (s, o) = (film.sum[p], film.sum_odd[p]);
+                let term = (0..3)
+                    .map(|c| stratified_variance(s[c], o[c], n) / denominator[c])
+                    .sum::<f64>()
+                    / 3.0;
+                sum.0 += term;
+                sum.1 += term * term;
+            }
+        }
+        sums
+    }
 }
 
 /// n times the variance of the mean of n samples, from the sum of the n samples and of those
@@ -47,27 +79,13 @@ impl TrialSums for HostRound {
     }
 
     fn terms(&mut self, weights: &[f64]) -> clpt::error::Result<Vec<(f64, f64)>> {
-        let n = f64::from(self.samples);
-        let pixels = self.films.first().map_or(0, |f| f.sum.len());
-        let mut sums = vec![(0.0f64, 0.0f64); self.films.len()];
-        for p in 0..pixels {
-            let mut denominator = [0.0f64; 3];
-            for (film, &w) in self.films.iter().zip(weights) {
-                for (d, &v) in denominator.iter_mut().zip(&film.sum[p][..3]) {
-                    *d += w * f64::from(v);
-                }
-            }
-            let denominator = denominator.map(|m| m * m + f64::from(REL_EPSILON));
-            for (film, sum) in self.films.iter().zip(&mut sums) {
-                let (s, o) = (film.sum[p], film.sum_odd[p]);
-                let term = (0..3)
-                    .map(|c| stratified_variance(s[c], o[c], n) / denominator[c])
-                    .sum::<f64>()
-                    / 3.0;
-                sum.0 += term;
-                sum.1 += term * term;
-            }
-        }
-        Ok(sums)
+        Ok(self.terms_of(&self.films, self.samples, weights))
+    }
+
+    fn early_terms(&mut self, weights: &[f64]) -> clpt::error::Result<Option<EarlyTerms>> {
+        Ok(self
+            .early
+            .as_ref()
+            .map(|(n, films)| (*n, self.terms_of(films, *n, weights))))
     }
 }
