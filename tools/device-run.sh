@@ -10,7 +10,8 @@
 #   devices      several devices (the GPU and the CPU device, if there is one)
 # trials      the trial's cost: each binary of $TRIAL_BINS (default ./clpt; built by hand with
 #             other trial shares, carried in device-run/) at the defaults against each short
-#             scene's best fixed setting, $REPS rounds (default 3)
+#             scene's best fixed setting (or $TRIAL_SCENES: FILE:SPP:LIGHT:RR ...), $REPS rounds
+#             (default 3), into $OUT/trials.csv (or $TRIALS_CSV)
 # mitsuba     tools/mitsuba-compare.py --cuda (needs .whl/ from tools/pack-mitsuba-wheels carried)
 # bench       cold builds and rates of each scene's program and of all features; the goblet alone
 # Results under $OUT, one file a stage (at most 8 files come back).
@@ -37,8 +38,8 @@ tests() {
   export CLPT_DEVICE=NVIDIA
   # The tests of the newest kernel changes first; none started after TESTS_BUDGET seconds.
   local start=$SECONDS
-  for t in test_far test_render test_shadow_rays test_layout test_geometry test_revsurface \
-      $(ls test_* | grep -v -x -e test_far -e test_render -e test_shadow_rays -e test_layout \
+  for t in test_trial test_strategy test_render test_far test_shadow_rays test_layout test_geometry test_revsurface \
+      $(ls test_* | grep -v -x -e test_trial -e test_strategy -e test_far -e test_render -e test_shadow_rays -e test_layout \
         -e test_geometry -e test_revsurface); do
     if [ $((SECONDS - start)) -gt "${TESTS_BUDGET:-400}" ]; then echo "$t: not run (budget)"; continue; fi
     timeout 300 ./$t --test-threads=4 > /tmp/$t.txt 2>&1; rc=$?
@@ -113,10 +114,11 @@ devices() {
 
 trials() {
   export CLPT_DEVICE=NVIDIA
-  local best="$seed/case2_softshadows_colorbleeding.txt:512:off:0.3 scenes/ceiling_room.txt:4096:on:0.3
+  local best=${TRIAL_SCENES:-"$seed/case2_softshadows_colorbleeding.txt:512:off:0.3 scenes/ceiling_room.txt:4096:on:0.3
     scenes/room.txt:4096:on:1 scenes/small_light.txt:4096:on:0.3 scenes/smallpt.txt:4096:on:0.3
-    scenes/goblet.txt:256:off:0.3"
-  echo "scene,setting,spp,seconds,relmse_estimate,relmse_x_seconds,estimator,binary,round" > $OUT/trials.csv
+    scenes/goblet.txt:256:off:0.3"}
+  local csv=${TRIALS_CSV:-$OUT/trials.csv}
+  echo "scene,setting,spp,seconds,relmse_estimate,relmse_x_seconds,estimator,binary,round" > $csv
   for round in $(seq "${REPS:-3}"); do
     for entry in $best; do
       IFS=: read -r file spp light rr <<< "$entry"
@@ -126,7 +128,7 @@ trials() {
         else
           SETTINGS=auto tools/estimators.sh $bin /tmp/t.csv $file:$spp > /dev/null
         fi
-        tail -1 /tmp/t.csv | sed "s|\$|,$(basename $bin),$round|" | tee -a $OUT/trials.csv
+        tail -1 /tmp/t.csv | sed "s|\$|,$(basename $bin),$round|" | tee -a $csv
       done
     done
   done

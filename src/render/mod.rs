@@ -386,6 +386,10 @@ pub struct Renderer<'d> {
     bad_first: ocl::Buffer<u32>,
     /// Samples per pixel the film already holds when the next render starts ([`Self::resume`]).
     start_samples: u32,
+    /// Samples per pixel of the whole image where the render is a chunk of it (several
+    /// devices' render: [`Self::render_chunk`]): the trial extrapolates to them, not to the
+    /// chunk's.
+    image_samples: Option<u32>,
     /// How the last render launched its passes, and for which strategy: the next render of
     /// that strategy starts from it instead of probing again (a chunk of several devices'
     /// render would otherwise spend its first pass on launches of one sample: render/multi.rs).
@@ -663,6 +667,7 @@ impl<'d> Renderer<'d> {
             bad,
             bad_first,
             start_samples: 0,
+            image_samples: None,
             launch_plan: None,
             options,
         };
@@ -935,7 +940,8 @@ impl<'d> Renderer<'d> {
             .take()
             .expect("trial kernels wherever there are several candidates");
         let round = (|| {
-            let early = strategy::early_samples(plan.samples, self.options.spp);
+            let render_samples = self.image_samples.or(self.options.spp);
+            let early = strategy::early_samples(plan.samples, render_samples);
             let mut kept = kernels.round(rows, strategies.len(), plan.samples, early)?;
             let first = self.options.first_sample;
             let mut timed = vec![Vec::new(); strategies.len()];
@@ -967,7 +973,7 @@ impl<'d> Renderer<'d> {
                     .map(|t| strategy::robust_seconds(t, rows.count))
                     .collect(),
                 samples: plan.samples,
-                render_samples: self.options.spp,
+                render_samples,
                 pixels: kept.pixels(),
             };
             let pixels = width as f64 * height as f64;
@@ -1020,6 +1026,12 @@ impl<'d> Renderer<'d> {
                 stopped: traced.stopped,
             },
         ))
+    }
+
+    /// The samples per pixel of the whole image that this renderer's chunks
+    /// ([`Self::render_chunk`]) are part of: its trial extrapolates to them.
+    pub fn set_image_samples(&mut self, samples: u32) {
+        self.image_samples = Some(samples);
     }
 
     /// Traces samples `first .. first + spp` (`first` a multiple of 8) into the film as it

@@ -94,8 +94,8 @@ const FULL_ROUND_GAIN: f64 = 2.0;
 /// A trial round of at least this many times [`TRIAL_SPP`] samples a pixel also measures each
 /// candidate after its first TRIAL_SPP samples, on the same pixels, and extrapolates the two to
 /// the render's samples ([`early_samples`], [`extrapolate`]). Farther apart, the step beyond the
-/// round is at most the distance between the two (k below 0.65 for any render); closer, a
-/// factor that grows without bound (samples twice the first: k up to 2.4).
+/// round is at most a third of the distance between the two (k below 1/3 for any render);
+/// closer, a larger factor (samples twice the first: k up to 1).
 pub const EXTRAPOLATION_SPAN: u32 = 4;
 
 /// The samples a pixel of a CPU device's trial rounds, at the least ([`least_trial_samples`]):
@@ -105,21 +105,27 @@ pub const EXTRAPOLATION_SPAN: u32 = 4;
 const LEAST_TRIAL_SPP_CPU: u32 = EXTRAPOLATION_SPAN * TRIAL_SPP;
 
 /// The exponent p of the model of how the relative variance of one sample, V(n) = n Var(mean
-/// of n), changes with the samples a pixel n: V(n) = a + b n^-p. Owen-scrambled Sobol points
-/// (kernels/rng.h) integrate the camera's and the first bounces' dimensions, where most of the
-/// variance lies, with the error of stratified samples; over a pixel crossed by edges that is
-/// a variance of the mean O(n^-1.5) (Mitchell, "Consequences of stratified sampling in
-/// graphics", SIGGRAPH 1996), so b n^-0.5, while the Philox dimensions beyond add a, plain
-/// Monte Carlo's constant. Why it matters: V falls by different shares for different settings
-/// (PoCL, meshes at 160x120, relative variance per sample at 8 and 256 samples: light sampling
-/// off, roulette below 0.3, 0.475 and 0.357; on, 0.3, 0.301 and 0.246), so that 8 samples read
-/// them tied where the render has the first 8% ahead. Fitted through 8 and 32 samples and
-/// extrapolated to 256, p = 0.5 gave 0.366 and 0.248; p = 1, 0.389 and 0.259 (BENCHMARKS.md).
-/// The same form follows a relative variance that grows with n (b < 0): the common
-/// denominator includes the candidate's own samples, which hides some of its variance where
-/// few samples carry it; roulette below 1 read 0.51, 0.61 and 0.65 at 8, 32 and 256 samples on
-/// meshes, whose line in n^-0.5 through the first two gives 0.67 at 256.
-const QUASI_RANDOM_EXPONENT: f64 = 0.5;
+/// of n), changes with the samples a pixel n: V(n) = a + b n^-p, a the part that more samples
+/// do not lower. Why a model at all: V changes by different shares for different settings, so
+/// that the trial's few samples can read two settings tied where the render has one well
+/// ahead (PoCL, 160x120, V at 8, 32 and 256 samples over the whole image: meshes with light
+/// sampling off, roulette below 0.3, 0.48, 0.41 and 0.35, with it on 0.30, 0.27 and 0.245, and
+/// the first is 12% ahead at 256 where the two tie at 8; BENCHMARKS.md). Two terms fall with n:
+/// the quasi-random samples' gain (Owen-scrambled Sobol points, kernels/rng.h, integrate the
+/// camera's and the first bounces' dimensions with the error of stratified samples; over a
+/// pixel crossed by edges a variance of the mean O(n^-1.5), Mitchell, "Consequences of
+/// stratified sampling in graphics", SIGGRAPH 1996: b n^-0.5), and the bias of a ratio over a
+/// denominator of n samples (O(1/n)). p = 1, measured against p = 0.5, through 8 and 32
+/// samples to 256: ceiling_room with light sampling off (V 0.31, 0.20 and 0.16) gives 0.168
+/// where 0.5 gives 0.13, which chose that setting, 38% worse, in one seed of six; meshes'
+/// pair above gives 0.38 and 0.256 (0.5: 0.355 and 0.243), the right order still; and the
+/// step beyond the round is 0.29 of the span instead of 0.65, so the round's noise grows by
+/// 1.29 instead of 1.65. Over six seeds at each (PoCL, 2 cores): ceiling_room right 6 times
+/// (0.5: 5), smallpt 4 (3), meshes 3 (4). A V that grows with n (b < 0: rare paths, which the
+/// common denominator partly hides at few samples) grows on the same way: smallpt's caustics
+/// read 0.48, 0.97 and 2.5 with light sampling on and roulette below 1, which no line through
+/// the first two reaches.
+const QUASI_RANDOM_EXPONENT: f64 = 1.0;
 
 /// The samples a pixel after which a trial round of `samples` also keeps each candidate's film
 /// for a render of `spp` (`None`: a time limit or a target error), where it extrapolates:
@@ -972,20 +978,21 @@ mod tests {
 
     #[test]
     fn the_relative_variance_is_extrapolated_along_the_model() {
-        // V(n) = 0.3 + 0.5 n^-0.5 (the model's form): exact from any two counts.
-        let v = |n: u32| 0.3 + 0.5 / f64::from(n).sqrt();
+        // V(n) = 0.3 + 0.5 / n (the model's form): exact from any two counts.
+        let v = |n: u32| 0.3 + 0.5 / f64::from(n);
         let (at_256, se) = extrapolate((8, v(8), 0.01), (32, v(32), 0.02), 256);
         assert!((at_256 - v(256)).abs() < 1e-12);
-        // k = (32^-0.5 - 256^-0.5) / (8^-0.5 - 32^-0.5) = 0.646...: the standard error grows by
-        // (1 + k) on the second round's and k on the first's.
-        let k = (1.0 / 32f64.sqrt() - 1.0 / 16.0) / (1.0 / 8f64.sqrt() - 1.0 / 32f64.sqrt());
+        // k = (1/32 - 1/256) / (1/8 - 1/32) = 0.29...: the standard error grows by (1 + k) on
+        // the second count's and k on the first's.
+        let k: f64 = (1.0 / 32.0 - 1.0 / 256.0) / (1.0 / 8.0 - 1.0 / 32.0);
+        assert!((k - 7.0 / 24.0).abs() < 1e-15);
         assert!((se - ((1.0 + k) * 0.02).hypot(k * 0.01)).abs() < 1e-12);
         // A variance that grows with the samples (rare paths found more often) grows on.
         assert!(extrapolate((8, 0.5, 0.0), (32, 0.6, 0.0), 256).0 > 0.6);
-        // Never below the power law through the second: a fall of 8 to 1 would reach 0.
+        // Never below the power law through the second: a fall of 8 to 1 would go below 0.
         let (floor, _) = extrapolate((8, 8.0, 0.0), (32, 1.0, 0.0), 256);
-        assert!((floor - 1.0 * (32f64 / 256.0).sqrt()).abs() < 1e-12);
-        // At or below the second round's samples, and for counts not increasing: the second.
+        assert!((floor - 32.0 / 256.0).abs() < 1e-12);
+        // At or below the second count, and for counts not increasing: the second.
         assert_eq!(extrapolate((8, 0.5, 0.1), (32, 0.4, 0.2), 32), (0.4, 0.2));
         assert_eq!(extrapolate((32, 0.5, 0.1), (32, 0.4, 0.2), 256), (0.4, 0.2));
     }
