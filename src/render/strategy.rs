@@ -28,6 +28,12 @@
 //! - The statistics ([`choose`] over [`TrialSums`]) are computed on the device
 //!   (render/trial.rs): a read-back of the trial's rows and a host pass over them had cost a
 //!   fast scene more than its candidates' renders.
+//! - A round of at least [`EXTRAPOLATION_SPAN`] × [`TRIAL_SPP`] samples a pixel also measures
+//!   each candidate after its first TRIAL_SPP, on the same pixels, and extrapolates the
+//!   relative variance to the render's samples ([`extrapolate`]): quasi-random samples lower it
+//!   by different shares for different settings, and a few samples read settings tied that the
+//!   render has 12% apart. A CPU's first round takes those samples on a lattice of rows and
+//!   columns ([`with_least_samples`]), its short renders affording no second round.
 //!
 //! The render then goes on with the winner from sample 0, or, when the winner rendered the
 //! full round last and on every row, from the samples that round left in the film: either way
@@ -45,7 +51,8 @@ use std::fmt;
 /// variance would count the spread within the pixel that the quasi-random samples integrate
 /// away, and blur the contrast between candidates (on smallpt it read pure path tracing's
 /// variance 1.3 times light sampling's where the render measures 1.9). Quasi-random samples
-/// gain more with more samples, so the trial's figures are those of its own few samples.
+/// gain more with more samples, so the trial's figures are those of its own few samples, or
+/// extrapolated from two counts ([`extrapolate`]).
 pub const TRIAL_SPP: u32 = 8;
 
 /// The most samples per pixel a trial takes, however long the render.
