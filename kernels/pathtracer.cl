@@ -227,8 +227,8 @@ inline bool warp_vote_half(bool p) {
 }
 #endif
 
-/* Accumulates sample_count samples from sample_start into every col_step-th pixel (from
- * (col_step - 1) / 2) of rows row_start, row_start + row_step, ... (row_count of them; steps
+/* Accumulates sample_count samples from sample_start into every col_step-th pixel from
+ * col_start (render/mod.rs, `Rows`) of rows row_start, row_start + row_step, ... (row_count of them; steps
  * above 1 only for the strategy trial of render/strategy.rs): the sums of radiance (compensated: sum + sum_lo) and of its squares,
  * and apart the (compensated) sum of the samples of odd-numbered groups of four, so that the even and odd halves give two independent
  * estimates of each pixel whose difference measures the error (error_rows). The halves are two
@@ -241,9 +241,9 @@ __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum, __global floa
                           __global float4* sum_odd_lo, __global uint* bad,
                           __global uint* bad_first, uint sample_start,
                           uint sample_count, uint row_start, uint row_count, uint row_step,
-                          uint col_step) {
+                          uint col_start, uint col_step) {
     const Scene scene = SCENE_FROM_KERNEL_ARGS;
-    const uint px = (col_step - 1u) / 2u + get_global_id(0) * col_step;
+    const uint px = col_start + get_global_id(0) * col_step;
     if (px >= params->camera.width || get_global_id(1) >= row_count) {
         return; /* padding of the global size to whole work-groups */
     }

@@ -25,18 +25,18 @@
 
 /* Copies part of a round's trial pixels of the film's two sums into candidate `slot`'s place
  * in `kept` (its sums, then its odd groups' sums, `columns * kept_rows` pixels each): of film
- * rows row_start + r * row_step for r < row_count, the columns (col_step - 1) / 2 + x *
- * col_step for x < columns (render/mod.rs, `Rows`), to kept rows kept_first + r * kept_step (a
+ * rows row_start + r * row_step for r < row_count, the columns col_start + x * col_step for
+ * x < columns (render/mod.rs, `Rows`), to kept rows kept_first + r * kept_step (a
  * round renders its rows in interleaved parts: render/mod.rs, `trial_round`). One work-item a
  * pixel. */
 __kernel void trial_keep(__global const float4* sum, __global const float4* sum_odd, uint width,
                          uint kept_rows, uint row_start, uint row_step, uint row_count,
-                         uint kept_first, uint kept_step, uint slot, uint col_step,
-                         uint columns, __global float4* kept) {
+                         uint kept_first, uint kept_step, uint slot, uint col_start,
+                         uint col_step, uint columns, __global float4* kept) {
     const uint x = get_global_id(0), r = get_global_id(1);
     if (x >= columns || r >= row_count) return;
     const uint pixels = columns * kept_rows;
-    const uint from = (row_start + r * row_step) * width + (col_step - 1u) / 2u + x * col_step;
+    const uint from = (row_start + r * row_step) * width + col_start + x * col_step;
     const uint to = (kept_first + r * kept_step) * columns + x;
     kept[2u * slot * pixels + to] = sum[from];
     kept[(2u * slot + 1u) * pixels + to] = sum_odd[from];

@@ -347,7 +347,7 @@ impl Rows {
     }
 
     /// The first column taken: the middle of the first `col_step` (as a trial's first row is
-    /// the middle of its first `step`).
+    /// the middle of its first `step`). The one definition: the kernels take it as `col_start`.
     pub fn first_column(&self) -> u32 {
         (self.col_step.max(1) - 1) / 2
     }
@@ -619,6 +619,7 @@ impl<'d> Renderer<'d> {
                 .arg_named("row_start", 0u32)
                 .arg_named("row_count", 0u32)
                 .arg_named("row_step", 1u32)
+                .arg_named("col_start", 0u32)
                 .arg_named("col_step", 1u32)
                 .build()
                 .map_err(|e| Error::opencl("creating the render kernel", e))?;
@@ -749,6 +750,7 @@ impl<'d> Renderer<'d> {
         set("row_start", rows.start)?;
         set("row_count", rows.count)?;
         set("row_step", rows.step)?;
+        set("col_start", rows.first_column())?;
         set("col_step", rows.col_step.max(1))?;
         // SAFETY: the kernel's buffers are alive (owned by self) and sized for the whole
         // image; the kernel bounds-checks the padded work-items, and every row of `rows` is in

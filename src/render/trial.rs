@@ -77,6 +77,7 @@ impl TrialKernels {
             .arg_named("kept_first", 0u32)
             .arg_named("kept_step", 1u32)
             .arg_named("slot", 0u32)
+            .arg_named("col_start", 0u32)
             .arg_named("col_step", 1u32)
             .arg_named("columns", 0u32)
             .arg_named("kept", placeholder)
@@ -204,6 +205,7 @@ impl KeptRound<'_> {
         k.set_arg("kept_step", parts).map_err(&bad)?;
         k.set_arg("slot", slot as u32).map_err(&bad)?;
         let columns = rows.columns(self.kernels.width);
+        k.set_arg("col_start", rows.first_column()).map_err(&bad)?;
         k.set_arg("col_step", rows.col_step.max(1)).map_err(&bad)?;
         k.set_arg("columns", columns).map_err(&bad)?;
         k.set_arg("kept", &self.kept).map_err(&bad)?;
