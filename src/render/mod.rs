@@ -970,10 +970,7 @@ impl<'d> Renderer<'d> {
             }
             let round = strategy::Round {
                 strategies: strategies.clone(),
-                seconds: timed
-                    .iter()
-                    .map(|t| strategy::robust_seconds(t, rows.count))
-                    .collect(),
+                seconds: strategy::robust_seconds(&timed, rows.count),
                 samples: plan.samples,
                 render_samples,
                 pixels: kept.pixels(),

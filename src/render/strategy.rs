@@ -156,16 +156,18 @@ pub fn least_trial_samples(kind: &str) -> u32 {
 
 /// `plan` with at least `least` samples a pixel (a multiple of [`TRIAL_SPP`], at most
 /// [`MAX_TRIAL_SPP`]) at about the same cost on an image of `width` x `height`: its pixels
-/// thinned out by the same factor f, in columns by the whole part of √f and in rows by the
-/// rest, so that they stay spread over the image (a CPU's scouts at 32 samples on every 52nd
-/// row of 160x120 kept 2 rows, which read light sampling's variance a quarter above the
-/// image's); never fewer than one row or column.
+/// thinned out by the same factor f, in columns as far as the image is wide and in rows by the
+/// rest, so that every row of the plan stays (a CPU's scouts at 32 samples on every 52nd row
+/// of 160x120 kept 2 rows, which read light sampling's variance a quarter above the image's;
+/// and the more rows, the more alike the timing parts that interleave them, [`timing_parts`]);
+/// never fewer than one row or column.
 pub fn with_least_samples(plan: TrialPlan, least: u32, (width, height): (u32, u32)) -> TrialPlan {
     if plan.samples >= least {
         return plan;
     }
     let factor = f64::from(least) / f64::from(plan.samples.max(1));
-    let columns = factor.sqrt().floor().max(1.0);
+    let width_left = f64::from(width.max(1)) / f64::from(plan.col_step.max(1));
+    let columns = factor.min(width_left).floor().max(1.0);
     let rows = factor / columns;
     let step = |step: u32, by: f64, most: u32| {
         (f64::from(step) * by)
@@ -205,37 +207,63 @@ pub fn extrapolate(
 }
 
 /// Parts a CPU device's trial round renders in ([`timing_parts`]).
-const CPU_TIMING_PARTS: u32 = 3;
+const CPU_TIMING_PARTS: u32 = 5;
 
 /// How many interleaved parts of its rows a trial round renders on a device of `kind`, each
-/// part by every candidate in turn before the next part (render/mod.rs, `trial_round`); a
-/// candidate's seconds are then those of its fastest part, scaled to the whole
-/// ([`robust_seconds`]). On a CPU, whose threads share the machine with everything else, a
-/// trial's launches of 10 to 40 ms take up to 1.6 times as long as usual at random: PoCL on 2
-/// cores of a shared machine, smallpt at 160x120, one seed, eight runs each, read its first
-/// candidate at 0.97 to 1.54 us a path (4 runs of 8 off by 8 to 60%, any candidate) in one
-/// part, and at 0.95 to 0.99 us (every candidate within 5%) in three. A GPU renders each
-/// round at once: parts would leave it idle (a third of 2^18 pixels is below what an H200
-/// keeps resident), and its timings repeat within 1% (BENCHMARKS.md).
+/// part by every candidate in turn before the next part (render/mod.rs, `trial_round`), so
+/// that [`robust_seconds`] compares the candidates part by part. On a CPU, whose threads share
+/// the machine with everything else, a trial's launches of 1 to 40 ms take up to twice as
+/// long as usual at random. PoCL on 2 cores of a shared machine, case2 at 128x96 (light
+/// sampling on and off with roulette below 0.3: 1.58 times the seconds in the render), 24
+/// trials each, the worst candidate's error in its seconds relative to the others: each
+/// candidate's fastest part, 3 parts of 2, 1 and 1 rows, 3 to 28% (the pair read 1.11 to 2.06,
+/// and 0.75 once in CI, which chose the slower); 5 parts of 8 rows, compared part by part, 1
+/// to 11% (the pair 1.33 to 1.61, median 1.49). A GPU renders each round at once: parts would
+/// leave it idle (a third of 2^18 pixels is below what an H200 keeps resident), and its
+/// timings repeat within 1% (BENCHMARKS.md).
 pub fn timing_parts(kind: &str) -> u32 {
     if kind == "CPU" { CPU_TIMING_PARTS } else { 1 }
 }
 
-/// A candidate's seconds on a round's `rows` rows from its seconds on each part (`parts`: the
-/// seconds and the rows of each): the rate of its fastest part, whose time least includes
-/// what else ran on the machine, over all the rows. The parts are interleaved rows of one
-/// set, alike in cost; interference only ever adds time.
-pub fn robust_seconds(parts: &[(f64, u32)], rows: u32) -> f64 {
-    let fastest = parts
-        .iter()
-        .filter(|&&(_, n)| n > 0)
-        .map(|&(s, n)| s / f64::from(n))
-        .fold(f64::INFINITY, f64::min);
-    if fastest.is_finite() {
-        fastest * f64::from(rows)
-    } else {
-        parts.iter().map(|&(s, _)| s).sum()
+/// Every candidate's seconds on a round's `rows` rows from its seconds on each part
+/// (`timed[k]`: candidate k's seconds and rows on each part, the parts in the same order for
+/// every candidate). In each part a candidate's seconds a row are compared with the geometric
+/// mean of all the candidates' on the same rows; the median of that ratio over the parts is
+/// its relative cost, and the fastest part's mean the scale. So a slowdown over a whole part
+/// (something else ran) cancels, one candidate's slow launch is outvoted, and parts of unlike
+/// rows (a row of ceiling against a row of floor) still compare like with like. Interference
+/// only ever adds time: the fastest part's mean is the one it touched least.
+pub fn robust_seconds(timed: &[Vec<(f64, u32)>], rows: u32) -> Vec<f64> {
+    let parts = timed.iter().map(Vec::len).min().unwrap_or(0);
+    let usable: Vec<usize> = (0..parts)
+        .filter(|&p| timed.iter().all(|t| t[p].1 > 0 && t[p].0 > 0.0))
+        .collect();
+    if usable.is_empty() {
+        return timed
+            .iter()
+            .map(|t| t.iter().map(|&(s, _)| s).sum())
+            .collect();
     }
+    let log_rate = |k: usize, p: usize| (timed[k][p].0 / f64::from(timed[k][p].1)).ln();
+    let mean =
+        |p: usize| (0..timed.len()).map(|k| log_rate(k, p)).sum::<f64>() / timed.len() as f64;
+    let scale = usable
+        .iter()
+        .map(|&p| mean(p))
+        .fold(f64::INFINITY, f64::min);
+    (0..timed.len())
+        .map(|k| {
+            let mut shares: Vec<f64> = usable.iter().map(|&p| log_rate(k, p) - mean(p)).collect();
+            shares.sort_by(f64::total_cmp);
+            let mid = shares.len() / 2;
+            let share = if shares.len() % 2 == 1 {
+                shares[mid]
+            } else {
+                (shares[mid - 1] + shares[mid]) / 2.0
+            };
+            (scale + share).exp() * f64::from(rows)
+        })
+        .collect()
 }
 
 /// The least paths a candidate traces in the scouting round on a device of `kind` (an OpenCL
@@ -1012,8 +1040,9 @@ mod tests {
         assert_eq!(early_samples(24, Some(256)), None);
         assert_eq!(early_samples(32, Some(32)), None);
         assert_eq!(early_samples(32, None), None);
-        // A CPU's rounds take 32 samples at the least, on rows thinned out alike: every 4th
-        // row at 8 samples becomes every 16th at 32; never fewer than one row.
+        // A CPU's rounds take 32 samples at the least, on pixels thinned out alike: every 4th
+        // row at 8 samples keeps its rows and every 4th column at 32; an image narrower than
+        // that thins its rows for the rest; never fewer than one row or column.
         assert_eq!(
             (least_trial_samples("CPU"), least_trial_samples("GPU")),
             (32, 8)
@@ -1024,29 +1053,47 @@ mod tests {
             samples,
         };
         let size = (160, 120);
-        assert_eq!(with_least_samples(plan(4, 1, 8), 32, size), plan(8, 2, 32));
+        assert_eq!(with_least_samples(plan(4, 1, 8), 32, size), plan(4, 4, 32));
         assert_eq!(
             with_least_samples(plan(13, 1, 8), 32, size),
-            plan(26, 2, 32)
+            plan(13, 4, 32)
         );
         assert_eq!(
             with_least_samples(plan(80, 1, 8), 32, size),
-            plan(120, 2, 32)
+            plan(80, 4, 32)
         );
-        assert_eq!(with_least_samples(plan(1, 1, 8), 64, size), plan(4, 2, 64));
+        assert_eq!(with_least_samples(plan(1, 1, 8), 64, size), plan(1, 8, 64));
+        assert_eq!(
+            with_least_samples(plan(4, 1, 8), 32, (3, 120)),
+            plan(5, 3, 32)
+        );
+        assert_eq!(
+            with_least_samples(plan(4, 1, 8), 32, (1, 2)),
+            plan(2, 1, 32)
+        );
         assert_eq!(with_least_samples(plan(2, 1, 48), 32, size), plan(2, 1, 48));
         assert_eq!(with_least_samples(plan(3, 1, 8), 8, size), plan(3, 1, 8));
-        assert_eq!(plan(8, 2, 32).cost(), plan(4, 1, 8).cost());
+        assert_eq!(plan(4, 4, 32).cost(), plan(4, 1, 8).cost());
     }
 
     #[test]
-    fn a_candidates_seconds_are_those_of_its_fastest_part() {
-        // Three parts of 4, 3 and 3 rows, the second slowed by something else: 0.1 s a row.
-        assert!((robust_seconds(&[(0.4, 4), (0.6, 3), (0.32, 3)], 10) - 1.0).abs() < 1e-12);
+    fn candidates_are_timed_against_each_other_part_by_part() {
+        let close = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-12);
+        // Two candidates at 0.1 and 0.2 s a row on three parts of 4, 3 and 3 rows; the second
+        // part slowed for both, the third for the second candidate alone.
+        let timed = [
+            vec![(0.4, 4), (0.6, 3), (0.3, 3)],
+            vec![(0.8, 4), (1.2, 3), (1.5, 3)],
+        ];
+        let expected = [1.0, 2.0];
+        assert!(close(&robust_seconds(&timed, 10), &expected));
+        // Parts of unlike rows (the second part's rows twice as dear): the same.
+        let timed = [vec![(0.4, 4), (0.6, 3)], vec![(0.8, 4), (1.2, 3)]];
+        assert!(close(&robust_seconds(&timed, 10), &expected));
         // One part: its seconds; no rows: the parts' seconds.
-        assert_eq!(robust_seconds(&[(0.7, 10)], 10), 0.7);
-        assert_eq!(robust_seconds(&[(0.0, 0)], 0), 0.0);
-        assert_eq!((timing_parts("CPU"), timing_parts("GPU")), (3, 1));
+        assert!(close(&robust_seconds(&[vec![(0.7, 10)]], 10), &[0.7]));
+        assert_eq!(robust_seconds(&[vec![(0.0, 0)]], 0), [0.0]);
+        assert_eq!((timing_parts("CPU"), timing_parts("GPU")), (5, 1));
     }
 
     #[test]
