@@ -1,8 +1,8 @@
 /* trial.cl: the strategy trial's statistics (render/strategy.rs, `choose`), on the device.
  *
  * Reads: the film's `sum` and `sum_odd` on a round's trial rows, after each candidate rendered
- * them (trial_keep), then every candidate's kept rows at once. Writes: per candidate its rows
- * into `kept` (trial_keep), and per chunk of TRIAL_CHUNK kept pixels and candidate two sums
+ * them or a part of its samples on them (trial_keep), then every candidate's kept rows at once.
+ * Writes: per candidate its rows' sums into `kept` (trial_keep), and per chunk of TRIAL_CHUNK kept pixels and candidate two sums
  * (trial_totals, trial_terms), which the host adds up in f64, chunk by chunk in order. A round
  * that extrapolates (render/strategy.rs, `extrapolate`) also keeps each candidate's rows after
  * its first samples, in slots `films` on: trial_terms reads those with `base` = films, over
@@ -23,23 +23,22 @@
  * TRIAL_CHUNK (the pixels a group sums) come from the host's build options (render/trial.rs),
  * which sizes the launches and the partial sums by them. */
 
-/* Copies part of a round's trial pixels of the film's two sums into candidate `slot`'s place
- * in `kept` (its sums, then its odd groups' sums, `columns * kept_rows` pixels each): of film
- * rows row_start + r * row_step for r < row_count, the columns col_start + x * col_step for
- * x < columns (render/mod.rs, `Rows`), to kept rows kept_first + r * kept_step (a
- * round renders its rows in interleaved parts: render/mod.rs, `trial_round`). One work-item a
- * pixel. */
+/* Adds a round's trial pixels of the film's two sums to candidate `slot`'s place in `kept`
+ * (its sums, then its odd groups' sums, `columns * row_count` pixels each, zeroed when the
+ * round began): of film rows row_start + r * row_step for r < row_count, the columns
+ * col_start + x * col_step for x < columns (render/mod.rs, `Rows`). Added, not copied: a CPU's
+ * candidate renders its samples in interleaved parts, the film cleared between them
+ * (render/mod.rs, `trial_round`), and its sums are the parts' sums. One work-item a pixel. */
 __kernel void trial_keep(__global const float4* sum, __global const float4* sum_odd, uint width,
-                         uint kept_rows, uint row_start, uint row_step, uint row_count,
-                         uint kept_first, uint kept_step, uint slot, uint col_start,
-                         uint col_step, uint columns, __global float4* kept) {
+                         uint row_start, uint row_step, uint row_count, uint slot,
+                         uint col_start, uint col_step, uint columns, __global float4* kept) {
     const uint x = get_global_id(0), r = get_global_id(1);
     if (x >= columns || r >= row_count) return;
-    const uint pixels = columns * kept_rows;
+    const uint pixels = columns * row_count;
     const uint from = (row_start + r * row_step) * width + col_start + x * col_step;
-    const uint to = (kept_first + r * kept_step) * columns + x;
-    kept[2u * slot * pixels + to] = sum[from];
-    kept[(2u * slot + 1u) * pixels + to] = sum_odd[from];
+    const uint to = r * columns + x;
+    kept[2u * slot * pixels + to] += sum[from];
+    kept[(2u * slot + 1u) * pixels + to] += sum_odd[from];
 }
 
 /* n times the variance of the mean of n samples, from the sum of the n samples and that of

@@ -12,7 +12,7 @@ use clpt::device::program::KernelSources;
 use clpt::render::Rows;
 use clpt::render::metrics::REL_EPSILON;
 use clpt::render::strategy::{self, Choice, Round, Strategy, TRIAL_SPP, TrialSums};
-use clpt::render::trial::{self, TrialKernels};
+use clpt::render::trial::TrialKernels;
 use common::trial::{HostFilm, HostRound};
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
@@ -45,9 +45,10 @@ fn plain(films: &[HostFilm], samples: u32) -> HostRound {
     }
 }
 
-/// [`on_device`], each film kept in `parts` interleaved parts of its rows ([`trial::part`]),
-/// every film's first part before any film's second, as a CPU's trial keeps them; the film
-/// between two parts holds only the part kept (NaN elsewhere).
+/// [`on_device`], each film kept in `parts` parts of its samples, every film's first part
+/// before any film's second, as a CPU's trial keeps them (each part added to the film's sums
+/// on the device): the first part holds each value rounded to 12 bits, the second the rest,
+/// any others nothing, so that the parts add up to the film exactly.
 fn in_parts<T>(
     device: &Device,
     host: &HostRound,
@@ -81,28 +82,45 @@ fn in_parts<T>(
         .unwrap();
     let columns = rows.columns(width);
     assert_eq!(round.pixels(), (columns * rows.count) as usize);
+    // Part `part` of a value (None: the whole): hi + lo == v exactly (lo is v - hi, exact in
+    // f32).
+    let share = |v: f32, part: Option<u32>| {
+        let hi = f32::from_bits(v.to_bits() & !0xfff);
+        match (parts, part) {
+            (1, _) | (_, None) => v,
+            (_, Some(0)) => hi,
+            (_, Some(1)) => v - hi,
+            _ => 0.0,
+        }
+    };
+    let image = |pixels: &[[f32; 4]], part: Option<u32>| {
+        let mut flat = vec![f32::NAN; len];
+        for (i, p) in pixels.iter().enumerate() {
+            let (x, r) = (i as u32 % columns, i as u32 / columns);
+            let column = rows.first_column() + x * rows.col_step;
+            let at = ((rows.start + r * rows.step) * width + column) as usize * 4;
+            for c in 0..4 {
+                flat[at + c] = share(p[c], part);
+            }
+        }
+        flat
+    };
     for part in 0..parts {
         for (k, film) in films.iter().enumerate() {
-            let image = |pixels: &[[f32; 4]]| {
-                let mut flat = vec![f32::NAN; len];
-                for (i, p) in pixels.iter().enumerate() {
-                    let (x, r) = (i as u32 % columns, i as u32 / columns);
-                    if r % parts == part {
-                        let column = rows.first_column() + x * rows.col_step;
-                        let at = ((rows.start + r * rows.step) * width + column) as usize * 4;
-                        flat[at..at + 4].copy_from_slice(p);
-                    }
-                }
-                flat
-            };
-            if let Some((_, early)) = &host.early {
-                sum.write(&image(&early[k].sum)).enq().unwrap();
-                sum_odd.write(&image(&early[k].sum_odd)).enq().unwrap();
-                round.keep_early(k, part, parts).unwrap();
+            if let (0, Some((_, early))) = (part, &host.early) {
+                sum.write(&image(&early[k].sum, None)).enq().unwrap();
+                sum_odd
+                    .write(&image(&early[k].sum_odd, None))
+                    .enq()
+                    .unwrap();
+                round.keep_early(k).unwrap();
             }
-            sum.write(&image(&film.sum)).enq().unwrap();
-            sum_odd.write(&image(&film.sum_odd)).enq().unwrap();
-            round.keep(k, part, parts).unwrap();
+            sum.write(&image(&film.sum, Some(part))).enq().unwrap();
+            sum_odd
+                .write(&image(&film.sum_odd, Some(part)))
+                .enq()
+                .unwrap();
+            round.keep(k).unwrap();
         }
     }
     f(&mut round)
@@ -260,18 +278,10 @@ fn a_round_kept_in_parts_sums_as_one_kept_whole() {
         })
     };
     let whole = sums(1);
-    // 10 rows in 3 parts of 4, 3 and 3 rows; in 4 of 3, 3, 2 and 2.
-    assert_eq!(sums(3), whole);
-    assert_eq!(sums(4), whole);
-    let part = |p, parts| {
-        let r = trial::part(rows, p, parts);
-        (r.start, r.count, r.step)
-    };
-    assert_eq!(
-        [part(0, 3), part(1, 3), part(2, 3)],
-        [(1, 4, 6), (3, 3, 6), (5, 3, 6)]
-    );
-    assert_eq!(part(11, 12).1, 0);
+    // Each film in two parts (each value's first 12 bits, then the rest), and in five (the
+    // three after those add nothing): each part is added to the film's sums.
+    assert_eq!(sums(2), whole);
+    assert_eq!(sums(5), whole);
 }
 
 #[test]

@@ -914,18 +914,18 @@ impl<'d> Renderer<'d> {
     }
 
     /// One round of the trial: the candidates `which` (indices into the candidate list) each
-    /// render the plan's rows and samples, in interleaved parts on a CPU
-    /// ([`strategy::timing_parts`]: every candidate renders a part, in the order of `which`,
-    /// before the next part), each part kept on the device (render/trial.rs) before the film
-    /// is cleared for the next; where the round extrapolates ([`strategy::early_samples`]),
-    /// kept after its first samples too. The film is left holding the last render: with one
-    /// part, the last candidate's whole round.
+    /// render the plan's rows and samples, on a CPU in parts of the samples
+    /// ([`strategy::sample_parts`]: every candidate renders a part on all the rows, in the
+    /// order of `which`, before the next part), each part added on the device to the
+    /// candidate's sums (render/trial.rs) before the film is cleared for the next; where the
+    /// round extrapolates ([`strategy::early_samples`]), kept after its first samples too. The
+    /// film is left holding the last render: with one part, the last candidate's whole round.
     fn trial_round(
         &mut self,
         which: &[usize],
         plan: strategy::TrialPlan,
         start: &Instant,
-    ) -> Result<(Choice, u32)> {
+    ) -> Result<(Choice, usize)> {
         let (width, height) = (self.width(), self.height());
         let step = plan.row_step;
         let first_row = (step - 1) / 2;
@@ -935,42 +935,48 @@ impl<'d> Renderer<'d> {
             step,
             col_step: plan.col_step.clamp(1, width.max(1)),
         };
-        let parts = strategy::timing_parts(&self.device.description.kind).min(rows.count);
         let strategies: Vec<Strategy> = which.iter().map(|&i| self.candidates[i]).collect();
+        let render_samples = self.image_samples.or(self.options.spp);
+        let early = strategy::early_samples(plan.samples, render_samples);
+        let parts = strategy::sample_parts(
+            plan.samples,
+            early,
+            strategy::timing_parts(&self.device.description.kind),
+        );
         let kernels = self
             .trial
             .take()
             .expect("trial kernels wherever there are several candidates");
         let round = (|| {
-            let render_samples = self.image_samples.or(self.options.spp);
-            let early = strategy::early_samples(plan.samples, render_samples);
             let mut kept = kernels.round(rows, strategies.len(), plan.samples, early)?;
             let first = self.options.first_sample;
             let mut timed = vec![Vec::new(); strategies.len()];
-            for part in 0..parts {
-                let part_rows = trial::part(rows, part, parts);
+            for (part, &(from, to)) in parts.iter().enumerate() {
                 for (k, &candidate) in strategies.iter().enumerate() {
                     if k > 0 || part > 0 {
                         self.clear_film()?;
                     }
                     self.select(candidate)?;
+                    // The part's samples, in two launches where the early film lies within.
                     let mut seconds = 0.0;
-                    let mut done = 0;
-                    if let Some(n) = early {
-                        seconds += self.render_rows(part_rows, first, n)?;
-                        kept.keep_early(k, part, parts)?;
+                    let mut done = from;
+                    if let Some(n) = early.filter(|&n| from < n && n <= to) {
+                        seconds += self.render_rows(rows, first + done, n - done)?;
+                        kept.keep_early(k)?;
                         done = n;
                     }
-                    seconds += self.render_rows(part_rows, first + done, plan.samples - done)?;
-                    timed[k].push((seconds, part_rows.count));
+                    if done < to {
+                        seconds += self.render_rows(rows, first + done, to - done)?;
+                    }
+                    timed[k].push((seconds, to - from));
                     // The trial's few samples (at most 64) need no compensation: `sum` alone
                     // is exact enough.
-                    kept.keep(k, part, parts)?;
+                    kept.keep(k)?;
                 }
             }
             let round = strategy::Round {
                 strategies: strategies.clone(),
-                seconds: strategy::robust_seconds(&timed, rows.count),
+                seconds: strategy::robust_seconds(&timed, plan.samples),
                 samples: plan.samples,
                 render_samples,
                 pixels: kept.pixels(),
@@ -979,7 +985,7 @@ impl<'d> Renderer<'d> {
             strategy::choose(&round, &mut kept, pixels, start.elapsed().as_secs_f64())
         })();
         self.trial = Some(kernels);
-        round.map(|choice| (choice, parts))
+        round.map(|choice| (choice, parts.len()))
     }
 
     /// Renders until the sample count or time limit, calling `on_progress` after every pass.

@@ -209,31 +209,35 @@ pub fn extrapolate(
 /// Parts a CPU device's trial round renders in ([`timing_parts`]).
 const CPU_TIMING_PARTS: u32 = 5;
 
-/// How many interleaved parts of its rows a trial round renders on a device of `kind`, each
-/// part by every candidate in turn before the next part (render/mod.rs, `trial_round`), so
-/// that [`robust_seconds`] compares the candidates part by part. On a CPU, whose threads share
-/// the machine with everything else, a trial's launches of 1 to 40 ms take up to twice as
-/// long as usual at random. PoCL on 2 cores of a shared machine, case2 at 128x96 (light
-/// sampling on and off with roulette below 0.3: 1.58 times the seconds in the render), 24
-/// trials each, the worst candidate's error in its seconds relative to the others: each
-/// candidate's fastest part, 3 parts of 2, 1 and 1 rows, 3 to 28% (the pair read 1.11 to 2.06,
-/// and 0.75 once in CI, which chose the slower); 5 parts of 8 rows, compared part by part, 1
-/// to 11% (the pair 1.33 to 1.61, median 1.49). A GPU renders each round at once: parts would
-/// leave it idle (a third of 2^18 pixels is below what an H200 keeps resident), and its
+/// How many parts of its samples a trial round renders in on a device of `kind`: every
+/// candidate renders a part on all the round's pixels before any renders the next
+/// ([`sample_parts`], render/mod.rs `trial_round`), so that [`robust_seconds`] compares the
+/// candidates part by part, on the same pixels. On a CPU, whose threads share the machine
+/// with everything else, a trial's launches of 1 to 40 ms take up to twice as long as usual
+/// at random. PoCL on 2 cores of a shared machine, light sampling on against off with
+/// roulette below 0.3 (1.58 and 1.60 times the seconds in the renders), as the trial read it:
+/// - case2 at 128x96, 24 trials each: each candidate's fastest of 3 parts of the rows (2, 1
+///   and 1 rows) 1.11 to 2.06 (0.75 once in CI, which chose the slower); 5 parts of 8 rows
+///   compared part by part 1.33 to 1.61; 5 parts of the samples 1.40 to 1.62 (12 trials);
+/// - meshes at 160x120: 5 parts of 2 rows compared part by part 1.20 to 1.97 (14 trials), the
+///   parts' own ratios 1.11 to 2.26 as their rows held more or less of the meshes; 5 parts of
+///   the samples, every part on every pixel, 1.39 to 1.67 (12 trials).
+///
+/// A GPU renders each round at once: parts would cost it launches and idle time, and its
 /// timings repeat within 1% (BENCHMARKS.md).
 pub fn timing_parts(kind: &str) -> u32 {
     if kind == "CPU" { CPU_TIMING_PARTS } else { 1 }
 }
 
-/// Every candidate's seconds on a round's `rows` rows from its seconds on each part
-/// (`timed[k]`: candidate k's seconds and rows on each part, the parts in the same order for
-/// every candidate). In each part a candidate's seconds a row are compared with the geometric
-/// mean of all the candidates' on the same rows; the median of that ratio over the parts is
-/// its relative cost, and the fastest part's mean the scale. So a slowdown over a whole part
-/// (something else ran) cancels, one candidate's slow launch is outvoted, and parts of unlike
-/// rows (a row of ceiling against a row of floor) still compare like with like. Interference
-/// only ever adds time: the fastest part's mean is the one it touched least.
-pub fn robust_seconds(timed: &[Vec<(f64, u32)>], rows: u32) -> Vec<f64> {
+/// Every candidate's seconds on a whole round from its seconds on each part (`timed[k]`:
+/// candidate k's seconds and samples on each part, the parts in the same order for every
+/// candidate; `samples` the round's). In each part a candidate's seconds a sample are
+/// compared with the geometric mean of all the candidates' on the same part; the median of
+/// that ratio over the parts is its relative cost, and the fastest part's mean the scale. So a
+/// slowdown over a whole part (something else ran) cancels and one candidate's slow launch is
+/// outvoted. Interference only ever adds time: the fastest part's mean is the one it touched
+/// least.
+pub fn robust_seconds(timed: &[Vec<(f64, u32)>], samples: u32) -> Vec<f64> {
     let parts = timed.iter().map(Vec::len).min().unwrap_or(0);
     let usable: Vec<usize> = (0..parts)
         .filter(|&p| timed.iter().all(|t| t[p].1 > 0 && t[p].0 > 0.0))
@@ -261,9 +265,26 @@ pub fn robust_seconds(timed: &[Vec<(f64, u32)>], rows: u32) -> Vec<f64> {
             } else {
                 (shares[mid - 1] + shares[mid]) / 2.0
             };
-            (scale + share).exp() * f64::from(rows)
+            (scale + share).exp() * f64::from(samples)
         })
         .collect()
+}
+
+/// The samples of each of a round's `parts` (ranges of its `samples` a pixel, from 0): where
+/// the round keeps its films after `early` samples, the first part ends there and the others
+/// share the rest; else all share alike. Never more parts than samples to share (one part:
+/// the whole round, which renders `early` and the rest in two launches).
+pub fn sample_parts(samples: u32, early: Option<u32>, parts: u32) -> Vec<(u32, u32)> {
+    let split = |from: u32, to: u32, n: u32| {
+        let n = n.clamp(1, (to - from).max(1));
+        (0..n).map(move |i| (from + (to - from) * i / n, from + (to - from) * (i + 1) / n))
+    };
+    match early {
+        Some(e) if parts > 1 && e < samples => std::iter::once((0, e))
+            .chain(split(e, samples, parts - 1))
+            .collect(),
+        _ => split(0, samples, parts).collect(),
+    }
 }
 
 /// The least paths a candidate traces in the scouting round on a device of `kind` (an OpenCL
@@ -1079,21 +1100,39 @@ mod tests {
     #[test]
     fn candidates_are_timed_against_each_other_part_by_part() {
         let close = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-12);
-        // Two candidates at 0.1 and 0.2 s a row on three parts of 4, 3 and 3 rows; the second
-        // part slowed for both, the third for the second candidate alone.
+        // Two candidates at 0.1 and 0.2 s a sample on three parts of 4, 3 and 3 samples; the
+        // second part slowed for both, the third for the second candidate alone.
         let timed = [
             vec![(0.4, 4), (0.6, 3), (0.3, 3)],
             vec![(0.8, 4), (1.2, 3), (1.5, 3)],
         ];
         let expected = [1.0, 2.0];
         assert!(close(&robust_seconds(&timed, 10), &expected));
-        // Parts of unlike rows (the second part's rows twice as dear): the same.
+        // Parts of unlike cost (the second part's samples twice as dear): the same.
         let timed = [vec![(0.4, 4), (0.6, 3)], vec![(0.8, 4), (1.2, 3)]];
         assert!(close(&robust_seconds(&timed, 10), &expected));
         // One part: its seconds; no rows: the parts' seconds.
         assert!(close(&robust_seconds(&[vec![(0.7, 10)]], 10), &[0.7]));
         assert_eq!(robust_seconds(&[vec![(0.0, 0)]], 0), [0.0]);
         assert_eq!((timing_parts("CPU"), timing_parts("GPU")), (5, 1));
+    }
+
+    #[test]
+    fn a_round_in_parts_shares_its_samples_after_the_early_ones() {
+        assert_eq!(
+            sample_parts(32, Some(8), 5),
+            [(0, 8), (8, 14), (14, 20), (20, 26), (26, 32)]
+        );
+        assert_eq!(sample_parts(33, Some(8), 3), [(0, 8), (8, 20), (20, 33)]);
+        // One part: the whole round (its early film kept within it).
+        assert_eq!(sample_parts(32, Some(8), 1), [(0, 32)]);
+        assert_eq!(
+            sample_parts(8, None, 5),
+            [(0, 1), (1, 3), (3, 4), (4, 6), (6, 8)]
+        );
+        // Never more parts than samples.
+        assert_eq!(sample_parts(2, None, 5), [(0, 1), (1, 2)]);
+        assert_eq!(sample_parts(9, Some(8), 5), [(0, 8), (8, 9)]);
     }
 
     #[test]

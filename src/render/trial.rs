@@ -19,17 +19,6 @@ const GROUP: u32 = 64;
 /// image (kernels/trial.cl); the host adds the chunks in f64.
 const CHUNK: u32 = 1024;
 
-/// Part `part` of `parts` of `rows`: every `parts`-th of them from the `part`-th (none where
-/// there are fewer rows than parts).
-pub fn part(rows: Rows, part: u32, parts: u32) -> Rows {
-    Rows {
-        start: rows.start + part * rows.step,
-        count: rows.count.saturating_sub(part).div_ceil(parts),
-        step: rows.step * parts,
-        ..rows
-    }
-}
-
 /// The trial's program and kernels, bound to one film's `sum` and `sum_odd` buffers.
 pub struct TrialKernels {
     program: BuiltProgram,
@@ -70,12 +59,9 @@ impl TrialKernels {
             .arg(sum)
             .arg(sum_odd)
             .arg(width)
-            .arg_named("kept_rows", 0u32)
             .arg_named("row_start", 0u32)
             .arg_named("row_step", 1u32)
             .arg_named("row_count", 0u32)
-            .arg_named("kept_first", 0u32)
-            .arg_named("kept_step", 1u32)
             .arg_named("slot", 0u32)
             .arg_named("col_start", 0u32)
             .arg_named("col_step", 1u32)
@@ -119,8 +105,8 @@ impl TrialKernels {
     }
 
     /// A round of `films` candidates of `samples` samples a pixel on `rows`: room on the
-    /// device for every candidate's rows, twice where the round also keeps them after their
-    /// first `early` samples ([`KeptRound::keep_early`]).
+    /// device for every candidate's rows, zeroed, twice where the round also keeps them after
+    /// their first `early` samples ([`KeptRound::keep_early`]).
     pub fn round(
         &self,
         rows: Rows,
@@ -139,6 +125,8 @@ impl TrialKernels {
                 .map_err(&bad)
         };
         let slots = films * if early.is_some() { 2 } else { 1 };
+        let kept = buffer(slots * 2 * pixels * 4)?;
+        kept.cmd().fill(0.0f32, None).enq().map_err(&bad)?;
         Ok(KeptRound {
             kernels: self,
             rows,
@@ -147,7 +135,7 @@ impl TrialKernels {
             early,
             pixels,
             chunks,
-            kept: buffer(slots * 2 * pixels * 4)?,
+            kept,
             out: buffer(chunks * films * 2)?,
             weights: buffer(films)?,
         })
@@ -175,34 +163,32 @@ impl KeptRound<'_> {
         self.pixels
     }
 
-    /// Copies the film's trial rows of `part` of `parts` ([`part`]) into candidate `slot`'s
-    /// place (enqueued: the next command on the queue sees them).
-    pub fn keep(&mut self, slot: usize, part: u32, parts: u32) -> Result<()> {
+    /// Adds the film's trial rows to candidate `slot`'s sums (enqueued: the next command on
+    /// the queue sees them): once for a candidate that rendered the round at once, once a part
+    /// for one that rendered its samples in parts, the film cleared between them.
+    pub fn keep(&mut self, slot: usize) -> Result<()> {
         assert!(slot < self.films, "slot {slot} of {} films", self.films);
-        self.keep_in(slot, part, parts)
+        self.keep_in(slot)
     }
 
     /// As [`Self::keep`], for the film after the candidate's first `early` samples (a round
-    /// made with them).
-    pub fn keep_early(&mut self, slot: usize, part: u32, parts: u32) -> Result<()> {
+    /// made with them), kept once.
+    pub fn keep_early(&mut self, slot: usize) -> Result<()> {
         assert!(
             self.early.is_some() && slot < self.films,
             "early slot {slot} of {} films",
             self.films
         );
-        self.keep_in(self.films + slot, part, parts)
+        self.keep_in(self.films + slot)
     }
 
-    fn keep_in(&mut self, slot: usize, part: u32, parts: u32) -> Result<()> {
-        let rows = self::part(self.rows, part, parts);
+    fn keep_in(&mut self, slot: usize) -> Result<()> {
+        let rows = self.rows;
         let k = &self.kernels.keep;
         let bad = fail("keeping the trial's rows");
-        k.set_arg("kept_rows", self.rows.count).map_err(&bad)?;
         k.set_arg("row_start", rows.start).map_err(&bad)?;
         k.set_arg("row_step", rows.step).map_err(&bad)?;
         k.set_arg("row_count", rows.count).map_err(&bad)?;
-        k.set_arg("kept_first", part).map_err(&bad)?;
-        k.set_arg("kept_step", parts).map_err(&bad)?;
         k.set_arg("slot", slot as u32).map_err(&bad)?;
         let columns = rows.columns(self.kernels.width);
         k.set_arg("col_start", rows.first_column()).map_err(&bad)?;
@@ -216,8 +202,7 @@ impl KeptRound<'_> {
         // SAFETY: the film holds every row of the round (the renderer's trial rows lie in the
         // image) and every column it takes (fewer than `columns(width)` steps from the first);
         // `kept` holds `films` slots of the round's pixels (twice that with early films: `slot`
-        // is below that), and part `part` of them are kept rows part + i * parts < rows.count;
-        // the kernel skips padded work-items.
+        // is below that); the kernel skips padded work-items.
         unsafe {
             k.cmd()
                 .global_work_size([round_up(columns), round_up(rows.count)])
