@@ -928,10 +928,9 @@ impl<'d> Renderer<'d> {
     ) -> Result<(Choice, usize)> {
         let (width, height) = (self.width(), self.height());
         let step = plan.row_step;
-        let first_row = (step - 1) / 2;
         let rows = Rows {
-            start: first_row,
-            count: (height - first_row).div_ceil(step),
+            start: (step - 1) / 2,
+            count: strategy::trial_rows(step, height),
             step,
             col_step: plan.col_step.clamp(1, width.max(1)),
         };
