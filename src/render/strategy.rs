@@ -205,7 +205,7 @@ fn rows_in_whole_groups(step: u32, height: u32) -> (u32, f64) {
         return (step, 1.0);
     }
     let aligned = (1..=height)
-        .filter(|&s| trial_rows(s, height) % group == 0)
+        .filter(|&s| trial_rows(s, height).is_multiple_of(group))
         .min_by_key(|&s| trial_rows(s, height).abs_diff(rows))
         .filter(|&s| trial_rows(s, height).abs_diff(rows) <= rows / 4);
     match aligned {
@@ -1162,10 +1162,10 @@ mod tests {
                 let now = trial_rows(aligned, height);
                 let possible = (1..=height).any(|s| {
                     let n = trial_rows(s, height);
-                    n % 8 == 0 && n.abs_diff(rows) <= rows / 4
+                    n.is_multiple_of(8) && n.abs_diff(rows) <= rows / 4
                 });
                 assert!(
-                    now <= 8 || now % 8 == 0 || !possible,
+                    now <= 8 || now.is_multiple_of(8) || !possible,
                     "{height} rows, step {step}: {now} rows"
                 );
                 // The nearest whole groups, never more than a quarter off; at most a group's
