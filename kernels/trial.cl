@@ -2,8 +2,8 @@
  *
  * Reads: the film's `sum` and `sum_odd` on a round's trial rows, after each candidate rendered
  * them or a part of its samples on them (trial_keep), then every candidate's kept rows at once.
- * Writes: per candidate its rows' sums into `kept` (trial_keep), and per chunk of TRIAL_CHUNK kept pixels and candidate two sums
- * (trial_totals, trial_terms), which the host adds up in f64, chunk by chunk in order. A round
+ * Writes: per candidate its rows' sums into `kept` (trial_keep), and per chunk of TRIAL_CHUNK
+ * kept pixels and candidate two sums (trial_totals, trial_terms), which the host adds up in f64, chunk by chunk in order. A round
  * that extrapolates (render/strategy.rs, `extrapolate`) also keeps each candidate's rows after
  * its first samples, in slots `films` on: trial_terms reads those with `base` = films, over
  * the same denominator (the final films').
@@ -27,7 +27,7 @@
  * (its sums, then its odd groups' sums, `columns * row_count` pixels each, zeroed when the
  * round began): of film rows row_start + r * row_step for r < row_count, the columns
  * col_start + x * col_step for x < columns (render/mod.rs, `Rows`). Added, not copied: a CPU's
- * candidate renders its samples in interleaved parts, the film cleared between them
+ * candidate renders its samples in parts, the film cleared between them
  * (render/mod.rs, `trial_round`), and its sums are the parts' sums. One work-item a pixel. */
 __kernel void trial_keep(__global const float4* sum, __global const float4* sum_odd, uint width,
                          uint row_start, uint row_step, uint row_count, uint slot,

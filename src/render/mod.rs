@@ -349,7 +349,7 @@ impl Rows {
     /// The first column taken: the middle of the first `col_step` (as a trial's first row is
     /// the middle of its first `step`). The one definition: the kernels take it as `col_start`.
     pub fn first_column(&self) -> u32 {
-        (self.col_step.max(1) - 1) / 2
+        strategy::trial_first_row(self.col_step)
     }
 
     /// The columns taken on an image `width` wide.
@@ -929,7 +929,7 @@ impl<'d> Renderer<'d> {
         let (width, height) = (self.width(), self.height());
         let step = plan.row_step;
         let rows = Rows {
-            start: (step - 1) / 2,
+            start: strategy::trial_first_row(step),
             count: strategy::trial_rows(step, height),
             step,
             col_step: plan.col_step.clamp(1, width.max(1)),

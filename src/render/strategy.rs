@@ -158,9 +158,9 @@ pub fn least_trial_samples(kind: &str) -> u32 {
 /// [`MAX_TRIAL_SPP`]) at about the same cost on an image of `width` x `height`: its pixels
 /// thinned out by the same factor f, in columns as far as the image is wide and in rows by the
 /// rest, so that every row of the plan stays (a CPU's scouts at 32 samples on every 52nd row
-/// of 160x120 kept 2 rows, which read light sampling's variance a quarter above the image's;
-/// and the more rows, the more alike the timing parts that interleave them, [`timing_parts`]);
-/// never fewer than one row or column.
+/// of 160x120 kept 2 rows, which read light sampling's variance a quarter above the image's);
+/// more than a work-group's rows in whole groups ([`rows_in_whole_groups`]); never fewer than
+/// one row or column.
 pub fn with_least_samples(plan: TrialPlan, least: u32, (width, height): (u32, u32)) -> TrialPlan {
     if plan.samples >= least {
         return plan;
@@ -183,11 +183,18 @@ pub fn with_least_samples(plan: TrialPlan, least: u32, (width, height): (u32, u3
     }
 }
 
+/// The first row a trial round with a row step `step` takes: the middle of the first step
+/// (and so its first column, `Rows::first_column`).
+pub fn trial_first_row(step: u32) -> u32 {
+    (step.max(1) - 1) / 2
+}
+
 /// The rows a trial round takes on an image `height` high with a row step `step`: every
-/// `step`-th from the middle of the first step (render/mod.rs, `trial_round`).
+/// `step`-th from [`trial_first_row`] (render/mod.rs, `trial_round`).
 pub fn trial_rows(step: u32, height: u32) -> u32 {
-    let step = step.max(1);
-    height.saturating_sub((step - 1) / 2).div_ceil(step)
+    height
+        .saturating_sub(trial_first_row(step))
+        .div_ceil(step.max(1))
 }
 
 /// A row step near `step` whose rows fill whole work-groups of the render kernel's launches
@@ -204,14 +211,12 @@ fn rows_in_whole_groups(step: u32, height: u32) -> (u32, f64) {
     if rows <= group {
         return (step, 1.0);
     }
-    let aligned = (1..=height)
-        .filter(|&s| trial_rows(s, height).is_multiple_of(group))
-        .min_by_key(|&s| trial_rows(s, height).abs_diff(rows))
-        .filter(|&s| trial_rows(s, height).abs_diff(rows) <= rows / 4);
-    match aligned {
-        Some(s) => (s, f64::from(trial_rows(s, height)) / f64::from(rows)),
-        None => (step, 1.0),
-    }
+    (1..=height)
+        .map(|s| (s, trial_rows(s, height)))
+        .filter(|&(_, n)| n.is_multiple_of(group))
+        .min_by_key(|&(_, n)| n.abs_diff(rows))
+        .filter(|&(_, n)| n.abs_diff(rows) <= rows / 4)
+        .map_or((step, 1.0), |(s, n)| (s, f64::from(n) / f64::from(rows)))
 }
 
 /// The relative variance of one sample at `n` samples a pixel, and its standard error, from
@@ -282,15 +287,19 @@ pub fn robust_seconds(timed: &[Vec<(f64, u32)>], samples: u32) -> Vec<f64> {
             .collect();
     }
     let log_rate = |k: usize, p: usize| (timed[k][p].0 / f64::from(timed[k][p].1)).ln();
-    let mean =
-        |p: usize| (0..timed.len()).map(|k| log_rate(k, p)).sum::<f64>() / timed.len() as f64;
-    let scale = usable
+    // Each usable part's mean log rate over the candidates.
+    let means: Vec<f64> = usable
         .iter()
-        .map(|&p| mean(p))
-        .fold(f64::INFINITY, f64::min);
+        .map(|&p| (0..timed.len()).map(|k| log_rate(k, p)).sum::<f64>() / timed.len() as f64)
+        .collect();
+    let scale = means.iter().copied().fold(f64::INFINITY, f64::min);
     (0..timed.len())
         .map(|k| {
-            let mut shares: Vec<f64> = usable.iter().map(|&p| log_rate(k, p) - mean(p)).collect();
+            let mut shares: Vec<f64> = usable
+                .iter()
+                .zip(&means)
+                .map(|(&p, mean)| log_rate(k, p) - mean)
+                .collect();
             shares.sort_by(f64::total_cmp);
             let mid = shares.len() / 2;
             let share = if shares.len() % 2 == 1 {
