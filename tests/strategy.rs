@@ -77,6 +77,38 @@ fn auto_leaves_the_ceiling_lit_room_to_path_tracing_with_late_roulette() {
     }
 }
 
+/// A render limited by time alone (`--time` without `--spp`) chooses as one of a sample count
+/// does: its trial scouts at the device's floor of paths, then sizes its full round by the
+/// samples its time affords (render/strategy.rs, `samples_within`). Before, its trial was the
+/// widest scouting round whatever the time: 14 s of a 5-second render of 1280x720 on PoCL.
+#[test]
+fn a_time_limited_render_chooses_as_a_counted_one() {
+    let Some(seed_dir) = common::seed_dir("a_time_limited_render_chooses_as_a_counted_one") else {
+        return;
+    };
+    let _turn = turn();
+    let scene = Scene::load(&seed_dir.join("testcases/case2_softshadows_colorbleeding.txt"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let scene = sized(scene, 128, 96);
+    for seed in [1, 2] {
+        let options = RenderOptions {
+            spp: None,
+            time_limit: Some(std::time::Duration::from_secs(2)),
+            ..auto(0, seed)
+        };
+        let (film, stats) = common::render(&scene, options);
+        let s = stats.choice.strategy();
+        for line in stats.choice.trial_lines() {
+            eprintln!("  {line}");
+        }
+        assert!(stats.choice.was_measured() && film.spp > 0);
+        assert!(
+            !s.light_sampling && s.rr_threshold < 1.0,
+            "seed {seed}: chose {s} for case2 in a time-limited render"
+        );
+    }
+}
+
 /// The render after a trial gives exactly the image of the strategy chosen, fixed by hand: at
 /// 64 samples (a one-round trial; the render starts afresh) and at 2048 with the two roulette
 /// thresholds of light sampling (close in this room, so both usually survive the scouting

@@ -855,7 +855,9 @@ impl<'d> Renderer<'d> {
     /// The strategy trial ([`strategy`]): every candidate renders the same rows, the film is
     /// read back and cleared after each, and the most efficient is selected; a long render's
     /// trial first scouts and then measures the survivors in full ([`strategy::scout_plan`]).
-    /// When the winner rendered the last round on every row, its samples stay in the film
+    /// A render limited by time alone scouts at the device's floor of paths and sizes its full
+    /// round by the samples the time left affords at the scouts' best speed
+    /// ([`strategy::samples_within`]), as a render of that sample count would. When the winner rendered the last round on every row, its samples stay in the film
     /// (`Choice::film_samples`). With one candidate there is nothing to measure.
     fn choose_strategy(&mut self) -> Result<Choice> {
         if self.candidates.len() < 2 {
@@ -865,34 +867,54 @@ impl<'d> Renderer<'d> {
         }
         let start = Instant::now();
         self.warm_up()?;
-        let height = self.height();
+        let (width, height) = (self.width(), self.height());
         let all: Vec<usize> = (0..self.candidates.len()).collect();
-        // A short render's trial is one round, as large as it affords; a longer one scouts.
-        let scout = strategy::scout_plan(
-            all.len(),
-            self.options.spp,
-            (self.width(), height),
-            strategy::min_scout_paths(&self.device.description.kind),
-        );
-        let first = strategy::trial_plan(all.len(), self.options.spp, height);
-        let first = if first.cost() > scout.cost() {
-            scout
+        let kind = self.device.description.kind.clone();
+        let min_paths = strategy::min_scout_paths(&kind);
+        // A render limited by time alone learns its samples from the first round's timings.
+        let time_only = self
+            .options
+            .time_limit
+            .filter(|_| self.options.spp.is_none());
+        let first = if time_only.is_some() {
+            strategy::time_limited_scout_plan((width, height), min_paths)
         } else {
-            first
+            // A short render's trial is one round, as large as it affords; a longer one
+            // scouts.
+            let scout =
+                strategy::scout_plan(all.len(), self.options.spp, (width, height), min_paths);
+            let first = strategy::trial_plan(all.len(), self.options.spp, height);
+            if first.cost() > scout.cost() {
+                scout
+            } else {
+                first
+            }
         };
         // A CPU's first round takes the samples that extrapolate, on fewer rows.
-        let least = strategy::least_trial_samples(&self.device.description.kind);
-        let first = strategy::with_least_samples(first, least, (self.width(), height));
-        let (scouted, _) = self.trial_round(&all, first, &start)?;
+        let least = strategy::least_trial_samples(&kind);
+        let first = strategy::with_least_samples(first, least, (width, height));
+        let render_samples = self.image_samples.or(self.options.spp);
+        let (scouted, _) = self.trial_round(&all, first, render_samples, &start)?;
         let survivors = scouted.survivors();
-        let full = self.options.spp.and_then(|spp| {
-            strategy::full_round_plan(&scouted, first, &survivors, spp, (self.width(), height))
+        let spp = self.options.spp.or_else(|| {
+            let best = &scouted.measured[scouted.chosen];
+            let left = time_only?.as_secs_f64() - start.elapsed().as_secs_f64();
+            let pixels = f64::from(width) * f64::from(height);
+            Some(strategy::samples_within(
+                left,
+                best.seconds_per_sample,
+                pixels,
+            ))
+        });
+        let full = spp.and_then(|spp| {
+            strategy::full_round_plan(&scouted, first, &survivors, spp, (width, height))
         });
         let mut choice = match full {
             None => scouted,
             Some(plan) => {
                 self.clear_film()?;
-                let (round, parts) = self.trial_round(&survivors, plan, &start)?;
+                let render_samples = self.image_samples.or(spp);
+                let (round, parts) = self.trial_round(&survivors, plan, render_samples, &start)?;
                 let mut choice = Choice::merge(&scouted, &survivors, round);
                 // The last film rendered is still there: the winner's when it rendered last
                 // (survivors() puts the scouts' best last) on every row, in one part. The
@@ -918,12 +940,14 @@ impl<'d> Renderer<'d> {
     /// ([`strategy::sample_parts`]: every candidate renders a part on all the rows, in the
     /// order of `which`, before the next part), each part added on the device to the
     /// candidate's sums (render/trial.rs) before the film is cleared for the next; where the
-    /// round extrapolates ([`strategy::early_samples`]), kept after its first samples too. The
-    /// film is left holding the last render: with one part, the last candidate's whole round.
+    /// round extrapolates to the render's samples, `render_samples` where known
+    /// ([`strategy::early_samples`]), kept after its first samples too. The film is left
+    /// holding the last render: with one part, the last candidate's whole round.
     fn trial_round(
         &mut self,
         which: &[usize],
         plan: strategy::TrialPlan,
+        render_samples: Option<u32>,
         start: &Instant,
     ) -> Result<(Choice, usize)> {
         let (width, height) = (self.width(), self.height());
@@ -935,7 +959,6 @@ impl<'d> Renderer<'d> {
             col_step: plan.col_step.clamp(1, width.max(1)),
         };
         let strategies: Vec<Strategy> = which.iter().map(|&i| self.candidates[i]).collect();
-        let render_samples = self.image_samples.or(self.options.spp);
         let early = strategy::early_samples(plan.samples, render_samples);
         let parts = strategy::sample_parts(
             plan.samples,

@@ -22,6 +22,10 @@
 //!   sized to [`FULL_ROUND_SHARE`] of the render's time at the best one's speed. Light sampling
 //!   can double a path's price, and a trial of fixed samples per candidate then cost 6-12% of a
 //!   render on the H200; this one 1-2% of the showcases'.
+//! - A render limited by time alone knows its samples only once a round has timed the
+//!   candidates: it scouts at the device's floor of paths ([`time_limited_scout_plan`]) and
+//!   sizes the full round, and the extrapolation, by the samples its time left affords at the
+//!   best one's speed ([`samples_within`]).
 //! - Each round spends its budget on more samples rather than on more than about
 //!   [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]): more pixels add little precision and keep a
 //!   GPU no busier.
@@ -176,11 +180,42 @@ pub fn with_least_samples(plan: TrialPlan, least: u32, (width, height): (u32, u3
     };
     let row_step = step(plan.row_step, rows, height);
     let (row_step, more_rows) = rows_in_whole_groups(row_step, height);
+    let (row_step, col_step) = spread_rows(
+        row_step,
+        step(plan.col_step, columns * more_rows, width),
+        (width, height),
+    );
     TrialPlan {
         row_step,
-        col_step: step(plan.col_step, columns * more_rows, width),
+        col_step,
         samples: least.min(MAX_TRIAL_SPP),
     }
+}
+
+/// A lattice of fewer rows than this, on an image that has more, trades columns for rows
+/// ([`spread_rows`]).
+const LEAST_LATTICE_ROWS: u32 = 4;
+
+/// A lattice of `row_step` and `col_step` on an image of `width` x `height` with fewer than
+/// [`LEAST_LATTICE_ROWS`] rows given more rows, up to a work-group's (super::GROUP), and fewer
+/// columns at about the same pixels: a round of a few thousand paths on a wide image (a
+/// time-limited render's scouts at a CPU's floor of 2^13 paths, 1280x720) had measured the
+/// middle row alone, every fourth pixel of it.
+fn spread_rows(row_step: u32, col_step: u32, (width, height): (u32, u32)) -> (u32, u32) {
+    let group = super::GROUP as u32;
+    let rows = trial_rows(row_step, height);
+    let columns = width.div_ceil(col_step.max(1));
+    if rows == 0 || rows >= LEAST_LATTICE_ROWS || rows >= height {
+        return (row_step, col_step);
+    }
+    let factor = (group / rows).min(columns).max(1);
+    let mut spread = (row_step / factor).max(1);
+    while trial_rows(spread, height) > group {
+        spread += 1;
+    }
+    let grown = f64::from(trial_rows(spread, height)) / f64::from(rows);
+    let col_step = (f64::from(col_step) * grown).round() as u32;
+    (spread, col_step.clamp(1, width.max(1)))
 }
 
 /// The first row a trial round with a row step `step` takes: the middle of the first step
@@ -568,13 +603,43 @@ pub fn scout_plan(
     min_paths: f64,
 ) -> TrialPlan {
     let widest = f64::from(TRIAL_SPP) / f64::from(MIN_ROW_STEP);
-    let pixels = f64::from(width) * f64::from(height);
     let budget = spp.map_or(widest, |n| {
-        (SCOUT_SHARE * f64::from(n) / candidates.max(1) as f64)
-            .max(min_paths / pixels.max(1.0))
-            .min(widest)
+        SCOUT_SHARE * f64::from(n) / candidates.max(1) as f64
     });
+    scout_on(budget, (width, height), min_paths)
+}
+
+/// The first round of a render limited by time alone (`--time` without `--spp`): the
+/// scouting round at the device's floor, `min_paths` paths a candidate. Its samples, and so
+/// what its trial affords, are known only once a round has timed the candidates
+/// ([`samples_within`]); the widest scouting round, which such a render had before, took a
+/// 1280x720 render on PoCL (2 cores) 14 s of a 5-second limit.
+pub fn time_limited_scout_plan((width, height): (u32, u32), min_paths: f64) -> TrialPlan {
+    scout_on(0.0, (width, height), min_paths)
+}
+
+/// A scouting round of `budget` full-image samples per pixel a candidate, at least `min_paths`
+/// paths and at most [`TRIAL_SPP`] samples on every fourth row's worth, on about
+/// [`TRIAL_PIXELS`] pixels at most.
+fn scout_on(budget: f64, (width, height): (u32, u32), min_paths: f64) -> TrialPlan {
+    let widest = f64::from(TRIAL_SPP) / f64::from(MIN_ROW_STEP);
+    let pixels = f64::from(width) * f64::from(height);
+    let budget = budget.max(min_paths / pixels.max(1.0)).min(widest);
     plan_on_rows(budget, row_step_for(width, height, TRIAL_PIXELS), height)
+}
+
+/// The samples per pixel a render of `pixels` pixels reaches in `seconds` at
+/// `seconds_per_sample` a path (a time-limited render's best candidate, as its first trial
+/// round timed it): the sample count its full round is sized by and extrapolates to, at least
+/// one. A CPU's trial reads up to twice the render's seconds a path (BENCHMARKS.md), so this
+/// errs low: a smaller full round, a shorter extrapolation.
+pub fn samples_within(seconds: f64, seconds_per_sample: f64, pixels: f64) -> u32 {
+    let samples = seconds / (seconds_per_sample * pixels);
+    if samples.is_finite() {
+        samples.clamp(1.0, f64::from(u32::MAX >> 1)) as u32
+    } else {
+        1
+    }
 }
 
 /// The row step that leaves about `cap` of an image's pixels.
@@ -1124,9 +1189,26 @@ mod tests {
             with_least_samples(plan(13, 1, 8), 32, size),
             plan(15, 4, 32)
         );
+        // 2 rows of 40 columns become 6 of 14 (fewer than 4 rows: spread_rows).
         assert_eq!(
             with_least_samples(plan(80, 1, 8), 32, size),
-            plan(80, 4, 32)
+            plan(20, 12, 32)
+        );
+        // A 1280x720 round at a CPU's floor (2^13 paths: 8 samples on one row), which kept the
+        // middle row alone: 8 rows of 40 columns.
+        let floor = time_limited_scout_plan((1280, 720), min_scout_paths("CPU"));
+        assert_eq!(floor, plan(720, 1, 8));
+        let spread = with_least_samples(floor, 32, (1280, 720));
+        assert_eq!(spread, plan(90, 32, 32));
+        assert_eq!(trial_rows(spread.row_step, 720), 8);
+        // An image of 2 rows keeps them; one column cannot give way to rows.
+        assert_eq!(
+            with_least_samples(plan(1, 1, 8), 32, (160, 2)),
+            plan(1, 4, 32)
+        );
+        assert_eq!(
+            with_least_samples(plan(120, 1, 8), 32, (1, 120)),
+            plan(120, 1, 32)
         );
         assert_eq!(with_least_samples(plan(1, 1, 8), 64, size), plan(1, 8, 64));
         assert_eq!(
@@ -1256,5 +1338,30 @@ mod tests {
         assert_eq!(cpu(Some(256), 160, 120), (13, 8));
         assert_eq!(cpu(Some(64), 160, 90), (15, 8));
         assert_eq!(min_scout_paths("GPU"), MIN_SCOUT_PATHS);
+    }
+
+    #[test]
+    fn a_time_limited_render_sizes_its_trial_by_the_samples_it_affords() {
+        // 10 s at 2 us a path on 1280x720: 5 samples a pixel; never fewer than 1, nor
+        // non-finite (an unmeasured or instant candidate).
+        assert_eq!(samples_within(10.0, 2e-6, 1280.0 * 720.0), 5);
+        assert_eq!(samples_within(0.01, 2e-6, 1280.0 * 720.0), 1);
+        assert_eq!(samples_within(-1.0, 2e-6, 1280.0 * 720.0), 1);
+        assert_eq!(samples_within(10.0, 0.0, 1280.0 * 720.0), 1);
+        assert_eq!(samples_within(10.0, f64::NAN, 100.0), 1);
+        assert_eq!(samples_within(1e9, 1e-9, 1.0), u32::MAX >> 1);
+        // Its first round: about the device's floor of paths (the row step rounded up: the
+        // GPU's 2^20 become every 8th row of 720, 0.88 of it), where the widest scouting round
+        // (8 samples on every 4th row) had cost a CPU 2^21 paths a candidate at 1280x720.
+        for (kind, paths) in [("CPU", 1 << 13), ("GPU", 1 << 20)] {
+            let plan = time_limited_scout_plan((1280, 720), min_scout_paths(kind));
+            let traced = plan.cost() * 1280.0 * 720.0;
+            assert!(
+                traced >= 0.75 * f64::from(paths) && traced < 1.5 * f64::from(paths),
+                "{plan:?}"
+            );
+        }
+        let widest = scout_plan(4, None, (1280, 720), MIN_SCOUT_PATHS_CPU);
+        assert_eq!(widest.cost() * 1280.0 * 720.0, 1280.0 * 180.0 * 8.0);
     }
 }
