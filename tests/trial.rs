@@ -66,13 +66,12 @@ fn in_parts<T>(
             .build()
             .unwrap()
     };
-    let (sum, sum_odd) = (buffer(), buffer());
+    let (sum, sum_odd, rest) = (buffer(), buffer(), [buffer(), buffer(), buffer()]);
     let kernels = TrialKernels::new(
         device,
         &KernelSources::Embedded,
         None,
-        &sum,
-        &sum_odd,
+        [&sum, &sum_odd, &rest[0], &rest[1], &rest[2]],
         width,
     )
     .unwrap_or_else(|e| panic!("{e}"));
@@ -120,10 +119,75 @@ fn in_parts<T>(
                 .write(&image(&film.sum_odd, Some(part)))
                 .enq()
                 .unwrap();
-            round.keep(k).unwrap();
+            round.keep(k, false).unwrap();
         }
     }
     f(&mut round)
+}
+
+/// A round on part of the image clears its pixels of the film's five sums as it keeps them
+/// (render/mod.rs, `trial_round`, clears no more than that between candidates), and no
+/// other pixel; keeping the early film clears nothing.
+#[test]
+fn keeping_a_lattice_round_clears_its_pixels_and_no_other() {
+    let device = common::device();
+    let (width, height) = (20u32, 9u32);
+    let rows = Rows {
+        start: 1,
+        count: 3,
+        step: 3,
+        col_step: 4,
+    };
+    let len = (width * height) as usize * 4;
+    let values: Vec<f32> = (0..len).map(|i| i as f32 + 1.0).collect();
+    let film: Vec<ocl::Buffer<f32>> = (0..5)
+        .map(|_| {
+            ocl::Buffer::<f32>::builder()
+                .queue(device.queue.clone())
+                .len(len)
+                .copy_host_slice(&values)
+                .build()
+                .unwrap()
+        })
+        .collect();
+    let kernels = TrialKernels::new(
+        &device,
+        &KernelSources::Embedded,
+        None,
+        [&film[0], &film[1], &film[2], &film[3], &film[4]],
+        width,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let mut round = kernels.round(rows, 1, 32, Some(8)).unwrap();
+    let read = |b: &ocl::Buffer<f32>| {
+        let mut v = vec![0.0f32; len];
+        b.read(&mut v).enq().unwrap();
+        v
+    };
+    round.keep_early(0).unwrap();
+    assert!(
+        film.iter().all(|b| read(b) == values),
+        "the early keep cleared"
+    );
+    round.keep(0, true).unwrap();
+    let columns = rows.columns(width);
+    let taken = |pixel: u32| {
+        let (x, y) = (pixel % width, pixel / width);
+        y >= rows.start
+            && (y - rows.start).is_multiple_of(rows.step)
+            && (y - rows.start) / rows.step < rows.count
+            && x >= rows.first_column()
+            && (x - rows.first_column()).is_multiple_of(rows.col_step)
+            && (x - rows.first_column()) / rows.col_step < columns
+    };
+    for (b, buffer) in film.iter().enumerate() {
+        let after = read(buffer);
+        for (i, (&v, &before)) in after.iter().zip(&values).enumerate() {
+            let expected = if taken(i as u32 / 4) { 0.0 } else { before };
+            assert_eq!(v, expected, "sum {b}, pixel {}, channel {}", i / 4, i % 4);
+        }
+    }
+    assert_eq!((0..width * height).filter(|&p| taken(p)).count(), 15);
 }
 
 /// One pixel channel's (sum, odd groups' sum) of `n` samples: mostly ordinary values, with

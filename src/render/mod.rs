@@ -642,8 +642,7 @@ impl<'d> Renderer<'d> {
                 device,
                 sources,
                 options.cache_dir.as_deref(),
-                &sum,
-                &sum_odd,
+                [&sum, &sum_odd, &sum_lo, &sum_sq, &sum_odd_lo],
                 packed.camera.width,
             )?)
         } else {
@@ -973,9 +972,13 @@ impl<'d> Renderer<'d> {
             let mut kept = kernels.round(rows, strategies.len(), plan.samples, early)?;
             let first = self.options.first_sample;
             let mut timed = vec![Vec::new(); strategies.len()];
+            // A round on part of the image clears its own pixels as it keeps them; one on
+            // every pixel clears the whole film (its counters too), and leaves the last
+            // candidate's render in it.
+            let lattice = rows.step > 1 || rows.col_step > 1;
             for (part, &(from, to)) in parts.iter().enumerate() {
                 for (k, &candidate) in strategies.iter().enumerate() {
-                    if k > 0 || part > 0 {
+                    if (k > 0 || part > 0) && !lattice {
                         self.clear_film()?;
                     }
                     self.select(candidate)?;
@@ -993,7 +996,7 @@ impl<'d> Renderer<'d> {
                     timed[k].push((seconds, to - from));
                     // The trial's few samples (at most 64) need no compensation: `sum` alone
                     // is exact enough.
-                    kept.keep(k)?;
+                    kept.keep(k, lattice)?;
                 }
             }
             let round = strategy::Round {

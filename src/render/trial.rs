@@ -35,15 +35,17 @@ fn fail(what: &'static str) -> impl Fn(ocl::Error) -> Error {
 
 impl TrialKernels {
     /// Builds kernels/trial.cl (through the program cache at `cache`) for a film `width`
-    /// pixels wide held in `sum` and `sum_odd` (float4 a pixel).
+    /// pixels wide held in `film`: its sums `sum`, `sum_odd`, `sum_lo`, `sum_sq` and
+    /// `sum_odd_lo` (float4 a pixel each, in that order), of which the trial reads the first
+    /// two and clears all five ([`KeptRound::keep`]).
     pub fn new(
         device: &Device,
         sources: &KernelSources,
         cache: Option<&Path>,
-        sum: &ocl::Buffer<f32>,
-        sum_odd: &ocl::Buffer<f32>,
+        film: [&ocl::Buffer<f32>; 5],
         width: u32,
     ) -> Result<Self> {
+        let [sum, sum_odd, sum_lo, sum_sq, sum_odd_lo] = film;
         let defines = [
             ("TRIAL_GROUP", format!("{GROUP}u")),
             ("TRIAL_CHUNK", format!("{CHUNK}u")),
@@ -58,6 +60,9 @@ impl TrialKernels {
             .queue(queue.clone())
             .arg(sum)
             .arg(sum_odd)
+            .arg(sum_lo)
+            .arg(sum_sq)
+            .arg(sum_odd_lo)
             .arg(width)
             .arg_named("row_start", 0u32)
             .arg_named("row_step", 1u32)
@@ -66,6 +71,7 @@ impl TrialKernels {
             .arg_named("col_start", 0u32)
             .arg_named("col_step", 1u32)
             .arg_named("columns", 0u32)
+            .arg_named("clear", 0u32)
             .arg_named("kept", placeholder)
             .build()
             .map_err(&bad)?;
@@ -165,24 +171,26 @@ impl KeptRound<'_> {
 
     /// Adds the film's trial rows to candidate `slot`'s sums (enqueued: the next command on
     /// the queue sees them): once for a candidate that rendered the round at once, once a part
-    /// for one that rendered its samples in parts, the film cleared between them.
-    pub fn keep(&mut self, slot: usize) -> Result<()> {
+    /// for one that rendered its samples in parts. With `clear`, the round's pixels of the
+    /// film are then zeroed, which is all the clearing the next candidate or part needs where
+    /// the round renders only them (render/mod.rs, `trial_round`).
+    pub fn keep(&mut self, slot: usize, clear: bool) -> Result<()> {
         assert!(slot < self.films, "slot {slot} of {} films", self.films);
-        self.keep_in(slot)
+        self.keep_in(slot, clear)
     }
 
     /// As [`Self::keep`], for the film after the candidate's first `early` samples (a round
-    /// made with them), kept once.
+    /// made with them), kept once; the film stays as it is, for the candidate's later samples.
     pub fn keep_early(&mut self, slot: usize) -> Result<()> {
         assert!(
             self.early.is_some() && slot < self.films,
             "early slot {slot} of {} films",
             self.films
         );
-        self.keep_in(self.films + slot)
+        self.keep_in(self.films + slot, false)
     }
 
-    fn keep_in(&mut self, slot: usize) -> Result<()> {
+    fn keep_in(&mut self, slot: usize, clear: bool) -> Result<()> {
         let rows = self.rows;
         let k = &self.kernels.keep;
         let bad = fail("keeping the trial's rows");
@@ -194,6 +202,7 @@ impl KeptRound<'_> {
         k.set_arg("col_start", rows.first_column()).map_err(&bad)?;
         k.set_arg("col_step", rows.col_step.max(1)).map_err(&bad)?;
         k.set_arg("columns", columns).map_err(&bad)?;
+        k.set_arg("clear", u32::from(clear)).map_err(&bad)?;
         k.set_arg("kept", &self.kept).map_err(&bad)?;
         if rows.count == 0 {
             return Ok(());
