@@ -36,6 +36,15 @@ fn sized(mut scene: Scene, width: u32, height: u32) -> Scene {
     scene
 }
 
+/// The original's case2 at 128x96, where the original's scenes are (`None` for `test` when
+/// they are not: common::seed_dir says so).
+fn case2(test: &str) -> Option<Scene> {
+    let seed_dir = common::seed_dir(test)?;
+    let scene = Scene::load(&seed_dir.join("testcases/case2_softshadows_colorbleeding.txt"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    Some(sized(scene, 128, 96))
+}
+
 fn chosen(scene: &Scene, spp: u32, seed: u64) -> Strategy {
     let (_, stats) = common::render(scene, auto(spp, seed));
     for line in stats.choice.trial_lines() {
@@ -60,14 +69,10 @@ fn auto_samples_the_small_light() {
 
 #[test]
 fn auto_leaves_the_ceiling_lit_room_to_path_tracing_with_late_roulette() {
-    let Some(seed_dir) = common::seed_dir("auto_leaves_the_ceiling_lit_room_to_path_tracing")
-    else {
+    let Some(scene) = case2("auto_leaves_the_ceiling_lit_room_to_path_tracing") else {
         return;
     };
     let _turn = turn();
-    let scene = Scene::load(&seed_dir.join("testcases/case2_softshadows_colorbleeding.txt"))
-        .unwrap_or_else(|e| panic!("{e}"));
-    let scene = sized(scene, 128, 96);
     for seed in [1, 2] {
         let s = chosen(&scene, 256, seed);
         assert!(
@@ -83,13 +88,10 @@ fn auto_leaves_the_ceiling_lit_room_to_path_tracing_with_late_roulette() {
 /// widest scouting round whatever the time: 14 s of a 5-second render of 1280x720 on PoCL.
 #[test]
 fn a_time_limited_render_chooses_as_a_counted_one() {
-    let Some(seed_dir) = common::seed_dir("a_time_limited_render_chooses_as_a_counted_one") else {
+    let Some(scene) = case2("a_time_limited_render_chooses_as_a_counted_one") else {
         return;
     };
     let _turn = turn();
-    let scene = Scene::load(&seed_dir.join("testcases/case2_softshadows_colorbleeding.txt"))
-        .unwrap_or_else(|e| panic!("{e}"));
-    let scene = sized(scene, 128, 96);
     for seed in [1, 2] {
         let options = RenderOptions {
             spp: None,
