@@ -242,7 +242,8 @@ struct RenderArgs {
     /// Samples (paths) per pixel [default: 64, or no limit with --time]
     #[arg(long)]
     spp: Option<u32>,
-    /// Stop after this many seconds (at the end of the pass running then).
+    /// Stop within this many seconds: no pass starts that would end after it (the first pass,
+    /// one sample a pixel at the least, always runs).
     #[arg(long, value_name = "SECONDS")]
     time: Option<f64>,
     /// Stop at the first pass whose estimated relMSE is at most E, once the estimate has

@@ -105,7 +105,9 @@ pub struct RenderOptions {
     /// samples `first_sample .. first_sample + spp`, one shard of a longer render
     /// (`clpt merge` joins shards).
     pub first_sample: u32,
-    /// Stop at the first pass boundary after this much rendering time.
+    /// Stop within this much rendering time: no pass starts that its predecessor's rate says
+    /// would end after it, and the last one takes the samples that fit ([`pass_within`]);
+    /// the first pass always runs.
     pub time_limit: Option<Duration>,
     /// The 64-bit key of every random number.
     pub seed: u64,
@@ -216,6 +218,21 @@ pub struct PassReport {
     pub estimate: ErrorEstimate,
     /// The error measured against the reference, when there is one.
     pub measured: Option<Metrics>,
+}
+
+/// The samples of the next pass of a time-limited render that end within the `left` seconds
+/// at `rate` pixel samples a second on `pixels` pixels: `count`, or as many as fit, 0 to stop.
+/// A pass's samples cover every pixel, so a pass cannot be cut short in time; the rate is the
+/// previous pass's, its error estimate and callback included. Before, a render stopped at the end
+/// of the pass running when its time was up: on PoCL (2 cores) a 5-second render of 1280x720
+/// took 6.1 s, its passes 1.4 s each.
+pub fn pass_within(count: u32, left: f64, rate: f64, pixels: f64) -> u32 {
+    let fit = left * rate / pixels;
+    if fit.is_nan() || fit < 1.0 {
+        0
+    } else {
+        count.min(fit.min(f64::from(u32::MAX)) as u32)
+    }
 }
 
 /// Whether the estimated relMSE of the last pass can be trusted to stop on: relMSE × spp, flat
@@ -1120,18 +1137,29 @@ impl<'d> Renderer<'d> {
             Some((strategy, plan)) if strategy == self.strategy => plan,
             _ => probe,
         };
+        // Pixel samples per second of the last pass, its error estimate and callback included,
+        // once there is one.
+        let mut last_rate = None;
         loop {
             let remaining = total.map_or(u32::MAX, |t| t.saturating_sub(spp_done));
             if remaining == 0 {
                 break;
             }
+            let mut count = plan.spp.min(remaining);
             if let Some(limit) = self.options.time_limit
                 && spp_done > 0
-                && start.elapsed() >= limit
             {
-                break;
+                let left = limit.as_secs_f64() - start.elapsed().as_secs_f64();
+                count = match last_rate {
+                    Some(rate) => pass_within(count, left, rate, pixels),
+                    None if left > 0.0 => count,
+                    None => 0,
+                };
+                if count == 0 {
+                    break;
+                }
             }
-            let count = plan.spp.min(remaining);
+            let pass_start = Instant::now();
             let mut pass_rate = f64::INFINITY;
             let mut row = 0;
             while row < height {
@@ -1186,6 +1214,7 @@ impl<'d> Renderer<'d> {
             {
                 break;
             }
+            last_rate = Some(pixels * f64::from(count) / pass_start.elapsed().as_secs_f64());
             // Plan the next pass from the slowest launch of this one.
             let budget = pass_rate * target; // pixel samples per launch
             plan = if budget >= pixels {
@@ -1324,4 +1353,25 @@ fn read_counters(buffer: &ocl::Buffer<u32>) -> Result<Vec<u32>> {
         .enq()
         .map_err(|e| Error::opencl("reading the sample counters back", e))?;
     Ok(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pass_within;
+
+    #[test]
+    fn a_time_limited_pass_takes_the_samples_that_fit() {
+        let pixels = 1000.0;
+        // 10,000 pixel samples a second: 10 samples a pixel a second.
+        assert_eq!(pass_within(4, 1.0, 1e4, pixels), 4);
+        assert_eq!(pass_within(40, 1.0, 1e4, pixels), 10);
+        assert_eq!(pass_within(40, 0.15, 1e4, pixels), 1);
+        // Less than one sample's time left, none, or past the limit: stop.
+        assert_eq!(pass_within(4, 0.05, 1e4, pixels), 0);
+        assert_eq!(pass_within(4, 0.0, 1e4, pixels), 0);
+        assert_eq!(pass_within(4, -3.0, 1e4, pixels), 0);
+        assert_eq!(pass_within(4, f64::NAN, 1e4, pixels), 0);
+        // An unmeasurably fast pass runs whole.
+        assert_eq!(pass_within(4, 1.0, f64::INFINITY, pixels), 4);
+    }
 }
