@@ -873,7 +873,8 @@ impl<'d> Renderer<'d> {
     /// trial first scouts and then measures the survivors in full ([`strategy::scout_plan`]).
     /// A render limited by time alone scouts at the device's floor of paths and sizes its full
     /// round by the samples the time left affords at the scouts' best speed
-    /// ([`strategy::samples_within`]), as a render of that sample count would. When the winner rendered the last round on every row, its samples stay in the film
+    /// ([`strategy::samples_within`]), as a render of that sample count would. When the
+    /// winner rendered the last round on every row, its samples stay in the film
     /// (`Choice::film_samples`). With one candidate there is nothing to measure.
     fn choose_strategy(&mut self) -> Result<Choice> {
         if self.candidates.len() < 2 {

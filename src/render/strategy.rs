@@ -602,8 +602,8 @@ pub fn scout_plan(
     (width, height): (u32, u32),
     min_paths: f64,
 ) -> TrialPlan {
-    let widest = f64::from(TRIAL_SPP) / f64::from(MIN_ROW_STEP);
-    let budget = spp.map_or(widest, |n| {
+    // No sample count: the widest round (scout_on's ceiling).
+    let budget = spp.map_or(f64::INFINITY, |n| {
         SCOUT_SHARE * f64::from(n) / candidates.max(1) as f64
     });
     scout_on(budget, (width, height), min_paths)
