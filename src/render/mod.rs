@@ -9,6 +9,7 @@
 //! sums, so the image does not depend on how the work was split.
 
 pub mod bench;
+pub mod clock;
 pub mod efficiency;
 pub mod features;
 pub mod film;
@@ -840,17 +841,18 @@ impl<'d> Renderer<'d> {
             step,
             ..Rows::band(0, 0)
         };
-        let seconds = self.render_rows(rows, self.options.first_sample, 1)?;
+        let seconds = self.render_rows(rows, self.options.first_sample, 1)?.wall;
         self.clear_film()?;
         Ok(f64::from(rows.count) / f64::from(height) / seconds)
     }
 
     /// Renders `rows` x samples [sample_start, +count) in launches of about the launch target
-    /// (a probe, then sized from its rate): returns the seconds spent in launches.
-    fn render_rows(&self, rows: Rows, sample_start: u32, count: u32) -> Result<f64> {
+    /// (a probe, then sized from its rate): returns the seconds spent in launches, wall and
+    /// CPU ([`clock::Spent`]).
+    fn render_rows(&self, rows: Rows, sample_start: u32, count: u32) -> Result<clock::Spent> {
         let target = self.options.launch_target.as_secs_f64().max(1e-3);
         let mut per_launch = rows.count.min(GROUP as u32 * 2);
-        let (mut done, mut seconds) = (0u32, 0.0);
+        let (mut done, mut spent) = (0u32, clock::Spent::default());
         while done < rows.count {
             let n = per_launch.min(rows.count - done);
             let part = Rows {
@@ -858,14 +860,13 @@ impl<'d> Renderer<'d> {
                 count: n,
                 ..rows
             };
-            let t0 = Instant::now();
-            self.launch(part, sample_start, count)?;
-            let secs = t0.elapsed().as_secs_f64().max(1e-6);
-            seconds += secs;
+            let (launched, this) = clock::measure(|| self.launch(part, sample_start, count));
+            launched?;
+            spent += this;
             done += n;
-            per_launch = ((n as f64 / secs * target) as u32).clamp(1, rows.count);
+            per_launch = ((n as f64 / this.wall.max(1e-6) * target) as u32).clamp(1, rows.count);
         }
-        Ok(seconds)
+        Ok(spent)
     }
 
     /// The strategy trial ([`strategy`]): every candidate renders the same rows, the film is
@@ -1001,7 +1002,7 @@ impl<'d> Renderer<'d> {
                     }
                     self.select(candidate)?;
                     // The part's samples, in two launches where the early film lies within.
-                    let mut seconds = 0.0;
+                    let mut seconds = clock::Spent::default();
                     let mut done = from;
                     if let Some(n) = early.filter(|&n| from < n && n <= to) {
                         seconds += self.render_rows(rows, first + done, n - done)?;
@@ -1017,6 +1018,9 @@ impl<'d> Renderer<'d> {
                     kept.keep(k, lattice)?;
                 }
             }
+            // A CPU's candidates compared by their work, which its launches' wall time blurs.
+            let cpu_device = self.device.description.kind == "CPU";
+            let timed = clock::comparable(&timed, cpu_device);
             let round = strategy::Round {
                 strategies: strategies.clone(),
                 seconds: strategy::robust_seconds(&timed, plan.samples),
