@@ -296,11 +296,9 @@ const CPU_TIMING_PARTS: u32 = 5;
 ///   parts' own ratios 1.11 to 2.26 as their rows held more or less of the meshes; 5 parts of
 ///   the samples, every part on every pixel, 1.39 to 1.67 (12 trials).
 ///
-/// On a CPU the parts' seconds are the process's CPU seconds (render/clock.rs `comparable`):
-/// the work done, which the wall time of a lattice's few work-groups on two threads blurs
-/// (the same trial twelve times, light sampling on against off: 1.641 ± 0.142 in wall
-/// seconds, 1.545 ± 0.033 in CPU seconds on ceiling_room). The parts stay: their median
-/// outvotes a launch whose own work ran slow (a cold cache, a page fault).
+/// On a CPU the parts' seconds are the process's CPU seconds (render/clock.rs, which says
+/// why and how much steadier they read). The parts stay: their median outvotes a launch whose
+/// own work ran slow (a cold cache, a page fault).
 ///
 /// A GPU renders each round at once: parts would cost it launches and idle time, and its
 /// timings repeat within 1% (BENCHMARKS.md).
