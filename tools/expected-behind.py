@@ -14,9 +14,11 @@ A choice's cost is then its setting's relMSE × seconds over the best one's, plu
 seconds over that setting's render seconds; the table gives its mean over the seeds, per scene.
 
   tools/expected-behind.py --clpt BIN [--clpt BIN ...] [--seeds 24] [--truth-seeds 3]
-      [--out DIR] SCENE:SPP[:W:H] ...
+      [--truth CSV] [--out DIR] SCENE:SPP[:W:H] ...
 
-The first --clpt renders the fixed settings. CLPT_DEVICE picks the device, as for clpt.
+The first --clpt renders the fixed settings; --truth takes them instead from the "fixed" rows
+of an earlier run's CSV (same scenes, samples and sizes, same machine), to compare new trials
+against settings measured once. CLPT_DEVICE picks the device, as for clpt.
 Besides the table, DIR/expected-behind.csv holds one row a fixed setting (binary "fixed": its
 mean render seconds and relMSE × seconds) and one row a trial (the binary: its choice, seed,
 trial seconds and cost behind the best).
@@ -67,9 +69,17 @@ def main():
     p.add_argument("--clpt", action="append", required=True)
     p.add_argument("--seeds", type=int, default=24)
     p.add_argument("--truth-seeds", type=int, default=3)
+    p.add_argument("--truth", help="an earlier expected-behind.csv whose fixed rows to reuse")
     p.add_argument("--out", default=".")
     p.add_argument("scenes", nargs="+")
     a = p.parse_args()
+    earlier = {}
+    if a.truth:
+        with open(a.truth, newline="") as f:
+            for r in csv.DictReader(f):
+                if r["binary"] == "fixed":
+                    key = (r["scene"], r["spp"], tuple(r["setting"].split(":")))
+                    earlier[key] = (float(r["seconds"]), float(r["relmse_x_seconds"]))
     os.makedirs(a.out, exist_ok=True)
     tmp = tempfile.mkdtemp()
     rows = []
@@ -79,12 +89,17 @@ def main():
         name = os.path.basename(file).removesuffix(".txt")
         truth = {}
         for light, rr in SETTINGS:
-            runs = [fixed(a.clpt[0], file, spp, size, s, light, rr, tmp)
-                    for s in range(1, a.truth_seeds + 1)]
-            seconds = statistics.mean(r[0] for r in runs)
-            relmse = statistics.mean(r[1] for r in runs)
-            truth[(light, rr)] = (seconds, relmse * seconds)
-            rows.append([name, spp, "fixed", f"{light}:{rr}", "", seconds, relmse * seconds, ""])
+            if a.truth:
+                if (name, spp, (light, rr)) not in earlier:
+                    sys.exit(f"{a.truth} has no fixed row for {name}, {spp}, {light}:{rr}")
+                seconds, product = earlier[(name, spp, (light, rr))]
+            else:
+                runs = [fixed(a.clpt[0], file, spp, size, s, light, rr, tmp)
+                        for s in range(1, a.truth_seeds + 1)]
+                seconds = statistics.mean(r[0] for r in runs)
+                product = statistics.mean(r[1] for r in runs) * seconds
+            truth[(light, rr)] = (seconds, product)
+            rows.append([name, spp, "fixed", f"{light}:{rr}", "", seconds, product, ""])
         best = min(v[1] for v in truth.values())
         # The binaries alternate seed by seed, so that a slow spell of the machine falls on all.
         for seed in range(1, a.seeds + 1):

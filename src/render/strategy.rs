@@ -544,13 +544,20 @@ pub fn plan_for_budget(budget: f64, height: u32) -> TrialPlan {
 /// [`FULL_ROUND_SHARE`] of the time a render of `spp` samples would take with the
 /// fastest-converging of them (by the scouts' timings), so the round costs the same share
 /// however slow the losers are. It spends that on more samples rather than on more than about
-/// [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]).
+/// [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]), and at least `least` samples a pixel
+/// ([`least_trial_samples`], [`with_least_samples`]) as the first round: on a CPU, an image
+/// of fewer pixels would otherwise spend it on [`TRIAL_SPP`] samples on every row, whose
+/// figures are not extrapolated and replace the scouts' extrapolated ones. PoCL, smallpt at
+/// 96x72 and 4096 samples, 24 trials: light sampling on with roulette below 1, 37% behind
+/// roulette below 0.3 in the render, chosen 15 times with 8 samples on every pixel, 3 times
+/// with 32 on a quarter of them (BENCHMARKS.md, "At the original's samples on PoCL").
 pub fn full_round_plan(
     scout: &Choice,
     scouted: TrialPlan,
     survivors: &[usize],
     spp: u32,
     (width, height): (u32, u32),
+    least: u32,
 ) -> Option<TrialPlan> {
     let chosen = &scout.measured[scout.chosen];
     let total: f64 = survivors
@@ -559,6 +566,7 @@ pub fn full_round_plan(
         .sum();
     let budget = FULL_ROUND_SHARE * f64::from(spp) * chosen.seconds_per_sample / total;
     let plan = plan_on_rows(budget, row_step_for(width, height, TRIAL_PIXELS), height);
+    let plan = with_least_samples(plan, least, (width, height));
     let gain = plan.cost() >= FULL_ROUND_GAIN * scouted.cost();
     (survivors.len() > 1 && budget.is_finite() && gain).then_some(plan)
 }
@@ -1103,24 +1111,36 @@ mod tests {
         // pixels at most), 16 samples.
         let scouted = scout_plan(4, Some(4000), (640, 480), MIN_SCOUT_PATHS);
         assert_eq!((scouted.row_step, scouted.samples), (4, 8));
-        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (640, 480)).unwrap();
+        let plan =
+            full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (640, 480), TRIAL_SPP).unwrap();
         assert_eq!((plan.row_step, plan.samples), (2, 16));
         // On 512x512 pixels (2^18) every row.
-        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (512, 512)).unwrap();
+        let plan =
+            full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (512, 512), TRIAL_SPP).unwrap();
         assert_eq!((plan.row_step, plan.samples), (1, 8));
+        // A CPU's takes the samples that extrapolate (32) on a quarter of the pixels, every
+        // row kept, at the same cost.
+        let cpu = least_trial_samples("CPU");
+        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (512, 512), cpu).unwrap();
+        assert_eq!((plan.row_step, plan.col_step, plan.samples), (1, 4, 32));
+        assert_eq!(early_samples(plan.samples, Some(4000)), Some(TRIAL_SPP));
+        // Where the GPU's plan has those samples already, the CPU's is the same.
+        let plan = |least| full_round_plan(&scout, scouted, &[1, 3, 2], 40_000, (640, 480), least);
+        assert_eq!(plan(TRIAL_SPP), plan(cpu));
+        assert!(plan(cpu).unwrap().samples >= cpu);
         // A shorter render affords no more than the scouting round: no full round.
         assert_eq!(
-            full_round_plan(&scout, scouted, &[1, 3, 2], 600, (640, 480)),
+            full_round_plan(&scout, scouted, &[1, 3, 2], 600, (640, 480), TRIAL_SPP),
             None
         );
         assert_eq!(
-            full_round_plan(&scout, scouted, &[2], 4000, (640, 480)),
+            full_round_plan(&scout, scouted, &[2], 4000, (640, 480), TRIAL_SPP),
             None
         );
         // Nor one that would take less than twice the scouts' samples: at 1200 samples 3
         // samples' worth each, 8 samples on every third row (2.7 against the scouts' 2).
         assert_eq!(
-            full_round_plan(&scout, scouted, &[1, 3, 2], 1200, (640, 480)),
+            full_round_plan(&scout, scouted, &[1, 3, 2], 1200, (640, 480), TRIAL_SPP),
             None
         );
         // Merged: the full round's figures for the survivors, the scouts' for the dropped.
