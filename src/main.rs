@@ -177,7 +177,7 @@ struct SamplingArgs {
     #[arg(long, default_value_t = 3)]
     rr_depth: u32,
     /// Roulette's threshold: paths whose largest throughput component is below T play
-    /// roulette, survivors carry T; auto: 1 or 0.3, whichever a short trial finds reaches a
+    /// roulette, survivors carry T; auto: 0.5 or 0.3, whichever a short trial finds reaches a
     /// given error sooner.
     #[arg(long, value_name = "auto|T", default_value = "auto")]
     rr_threshold: Roulette,

@@ -4,10 +4,11 @@
 //!
 //! Why measure: no setting wins everywhere. On the H200 at the original's sizes, light sampling
 //! doubles the time of the ceiling-lit showcases for the same error, yet reaches a small light's
-//! error 17 times sooner; roulette from a throughput of 1 (pbrt-v4's rule) is the most efficient
-//! in rooms whose albedo-1 lights keep paths bouncing, while in the original's closed rooms with
-//! black emitters, where paths end anyway, it only adds variance (a threshold of 0.3 reaches
-//! the same error 2.4 times sooner there). BENCHMARKS.md has the figures.
+//! error 17 times sooner; roulette below a throughput of 0.5 is the most efficient in rooms whose
+//! albedo-1 lights keep paths bouncing, while in the original's closed rooms with black
+//! emitters, where paths end anyway, roulette only adds variance and 0.3 wins (pbrt-v4's 1
+//! reaches the same error 2.4 times later there, and was nowhere the best). BENCHMARKS.md has
+//! the figures.
 //!
 //! How: before the render, every candidate renders the same samples of the same set of rows.
 //! Each pixel's sample variance over the common denominator (the candidates' mean value
@@ -62,9 +63,13 @@ pub const TRIAL_SPP: u32 = 8;
 /// The most samples per pixel a trial takes, however long the render.
 const MAX_TRIAL_SPP: u32 = 64;
 
-/// Roulette thresholds `auto` tries: 1 (pbrt-v4's throughput roulette) and 0.3, which lets
-/// paths run on until their weight has fallen below 0.3 (see kernels/pathtracer.cl).
-pub const RR_THRESHOLDS: [f32; 2] = [1.0, 0.3];
+/// Roulette thresholds `auto` tries: 0.5 and 0.3, which let paths run on until their weight
+/// has fallen below them (see kernels/pathtracer.cl). Measured at the original's samples
+/// against 1 (pbrt-v4's throughput roulette) and 0.2 (BENCHMARKS.md): on the H200 and on PoCL
+/// one of these two was the best of the four on every scene, where 1 had been chosen on the
+/// lit rooms while 0.5 was 3 to 19% ahead of it there, and 0.2 lost 3 to 4% to 0.3 on the
+/// showcases. Two close candidates also cost less when the trial errs between them.
+pub const RR_THRESHOLDS: [f32; 2] = [0.5, 0.3];
 
 /// A render given a sample count affords each candidate's first round this share of those
 /// samples, divided among the candidates (only short renders' trials are that small: longer
