@@ -1042,20 +1042,20 @@ mod tests {
         assert_eq!(
             all,
             [
-                strategy(true, 1.0),
+                strategy(true, 0.5),
                 strategy(true, 0.3),
-                strategy(false, 1.0),
+                strategy(false, 0.5),
                 strategy(false, 0.3)
             ]
         );
         // No listed light: nothing for light sampling to sample.
         assert_eq!(
-            candidates(LightSampling::On, Roulette::Threshold(0.5), false),
-            [strategy(false, 0.5)]
+            candidates(LightSampling::On, Roulette::Threshold(0.7), false),
+            [strategy(false, 0.7)]
         );
         assert_eq!(
             candidates(LightSampling::Off, Roulette::Auto, true),
-            [strategy(false, 1.0), strategy(false, 0.3)]
+            [strategy(false, 0.5), strategy(false, 0.3)]
         );
         assert!("0".parse::<Roulette>().is_err() && "1.5".parse::<Roulette>().is_err());
         assert_eq!("0.25".parse::<Roulette>(), Ok(Roulette::Threshold(0.25)));
