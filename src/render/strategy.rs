@@ -66,9 +66,9 @@ const MAX_TRIAL_SPP: u32 = 64;
 /// Roulette thresholds `auto` tries: 0.5 and 0.3, which let paths run on until their weight
 /// has fallen below them (see kernels/pathtracer.cl). Measured at the original's samples
 /// against 1 (pbrt-v4's throughput roulette) and 0.2 (BENCHMARKS.md): on the H200 and on PoCL
-/// one of these two was the best of the four on every scene, where 1 had been chosen on the
-/// lit rooms while 0.5 was 3 to 19% ahead of it there, and 0.2 lost 3 to 4% to 0.3 on the
-/// showcases. Two close candidates also cost less when the trial errs between them.
+/// one of these two was the best on every scene; where 1 had been chosen (the lit rooms), 0.5
+/// was 0.8 to 29% ahead of it on the H200 and 12 to 38% on PoCL, and 0.2 lost 2.6 to 3.9% to
+/// 0.3 on the H200's showcases. Two close candidates also cost less when the trial errs between them.
 pub const RR_THRESHOLDS: [f32; 2] = [0.5, 0.3];
 
 /// A render given a sample count affords each candidate's first round this share of those
