@@ -22,23 +22,29 @@ __kernel void probe_philox(__global const uint4* ctr, __global const uint2* key,
     out[i] = philox4x32_10(ctr[i], key[i]);
 }
 
+/* Block k of a path's numbers: its k-th BSDF-side block (rng_next4, the camera's first), or
+ * with `light` the light sample's at vertex k (rng_light4). */
+inline float4 probe_rng_block(Rng* rng, uint light, uint k) {
+    return light ? rng_light4(rng, k) : rng_next4(rng);
+}
+
 /* `dims` blocks of the stream of (seed, pixel = work-item, sample). */
-__kernel void probe_rng_stream(uint seed_lo, uint seed_hi, uint sample, uint dims,
+__kernel void probe_rng_stream(uint seed_lo, uint seed_hi, uint sample, uint light, uint dims,
                                __global float4* out) {
     const uint pixel = get_global_id(0);
     Rng rng = rng_for_path(seed_lo, seed_hi, pixel, sample);
     for (uint k = 0u; k < dims; ++k) {
-        out[pixel * dims + k] = rng_next4(&rng);
+        out[pixel * dims + k] = probe_rng_block(&rng, light, k);
     }
 }
 
 /* `dims` blocks of the samples sample_start + work-item of one pixel. */
 __kernel void probe_rng_samples(uint seed_lo, uint seed_hi, uint pixel, uint sample_start,
-                                uint dims, __global float4* out) {
+                                uint light, uint dims, __global float4* out) {
     const uint i = get_global_id(0);
     Rng rng = rng_for_path(seed_lo, seed_hi, pixel, sample_start + i);
     for (uint k = 0u; k < dims; ++k) {
-        out[i * dims + k] = rng_next4(&rng);
+        out[i * dims + k] = probe_rng_block(&rng, light, k);
     }
 }
 

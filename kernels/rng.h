@@ -7,11 +7,18 @@
  * range traces the same paths, and no generator state lives in memory.
  *
  * The numbers come in blocks of four (`dimension` counts blocks along the path: the camera's,
- * then per bounce the BSDF's and, with light sampling, the light's). Block b < SOBOL_BLOCKS of
- * sample s in pixel p is point j of a four-dimensional Sobol sequence (sobol.h) whose index is shuffled
- * and whose coordinates are Owen-scrambled with seeds that Philox draws from (seed, p, b, half):
- * Burley's "shuffled scrambled Sobol" with padding (JCGT 2020), pbrt-v4's PaddedSobolSampler.
- * Later blocks are Philox numbers of (pixel, s, b) (the counter-based generator alone).
+ * then one per bounce for the BSDF and roulette). Light samples draw from blocks of their own,
+ * one per vertex (rng_light4), so that light sampling on and off trace the very same paths
+ * and differ only in what they add along them: the strategy trial (render/strategy.rs)
+ * compares the two on the same paths, and reads their ratio of variances with half the noise
+ * it had when a light sample shifted every later bounce's numbers (PoCL, the original's case0,
+ * case1 and case3 at 96x54, 24 seeds: its spread 0.11 to 0.12, now 0.05 to 0.06; BENCHMARKS.md).
+ * Block b < SOBOL_BLOCKS of sample s in pixel p is point j of a four-dimensional Sobol
+ * sequence (sobol.h) whose index is shuffled and whose coordinates are Owen-scrambled with
+ * seeds that Philox draws from (seed, p, b, half): Burley's "shuffled scrambled Sobol" with
+ * padding (JCGT 2020), pbrt-v4's PaddedSobolSampler. Later blocks are Philox numbers of
+ * (pixel, s, b) (the counter-based generator alone); the first vertex's light block is a
+ * Sobol block too (b = LIGHT_BLOCK), later vertices' Philox numbers of (pixel, s, vertex, 1).
  * Each number is uniform on [0, 1) and the blocks of one sample independent, so every estimate
  * stays unbiased; within a block a pixel's samples fill the four dimensions evenly, which
  * lowers the error of the camera's and the first bounces' integrals (measured in
@@ -24,7 +31,7 @@
  * where halves of one sequence would be negatively correlated and overstate it.
  *
  * tests/rng.rs checks Philox's known answers (Random123), the Sobol table, the net property,
- * uniformity and the independence of pixels, seeds, halves and blocks.
+ * uniformity and the independence of pixels, seeds, halves and blocks, the light's included.
  */
 #ifndef CLPT_RNG_H
 #define CLPT_RNG_H
@@ -67,13 +74,16 @@ inline float rng_to_unit(uint bits) {
     return (float)(bits >> 8) * 0x1.0p-24f;
 }
 
-/* Blocks 0 .. SOBOL_BLOCKS - 1 are quasi-random: the camera's, the first bounce's BSDF block and
- * then its light block (with light sampling) or the second bounce's BSDF block (without). Later
- * ones are plain Philox numbers of (pixel, sample, block): on PoCL, 3 quasi-random blocks gave
- * the error of 6 or of all (the variance lies in the pixel footprint and the first bounce) at
- * less cost, 2 left 1.7 times the error in a room with light sampling. Rng holds exactly
- * this many (quasi0 .. quasi2). */
+/* Blocks 0 .. SOBOL_BLOCKS - 1 are quasi-random: the camera's and the first two bounces' BSDF
+ * blocks (and, apart, the first vertex's light block, rng_light4). Later ones are plain Philox
+ * numbers of (pixel, sample, block): on PoCL, 3 quasi-random blocks gave the error of 6 or of
+ * all (the variance lies in the pixel footprint and the first bounce) at less cost, 2 left 1.7
+ * times the error in a room with light sampling. Rng holds exactly this many (quasi0 ..
+ * quasi2). */
 #define SOBOL_BLOCKS 3u
+
+/* The Sobol block of the first vertex's light sample: an index no path's BSDF blocks reach. */
+#define LIGHT_BLOCK 0x80000000u
 
 /* Quasi-random block `block` of sample `sample` in pixel `pixel`: Philox of the counter
  * (pixel, block, half, ~0) under the seed gives the shuffle and scrambling seeds, the sample
@@ -117,6 +127,17 @@ inline float4 rng_next4(Rng* rng) {
     } else {
         bits = philox4x32_10((uint4)(rng->pixel, rng->sample, block, 0u), rng->key);
     }
+    return (float4)(rng_to_unit(bits.x), rng_to_unit(bits.y), rng_to_unit(bits.z),
+                    rng_to_unit(bits.w));
+}
+
+/* Four uniform numbers for the light sample at vertex `vertex` (0 the first) of the path, from
+ * blocks apart from the BSDF's (see the top of this file for why): quasi-random at the first
+ * vertex, where light sampling spends most of its samples, Philox numbers later. */
+inline float4 rng_light4(const Rng* rng, uint vertex) {
+    const uint4 bits =
+        vertex == 0u ? rng_quasi_block(rng->key, rng->pixel, rng->sample, LIGHT_BLOCK)
+                     : philox4x32_10((uint4)(rng->pixel, rng->sample, vertex, 1u), rng->key);
     return (float4)(rng_to_unit(bits.x), rng_to_unit(bits.y), rng_to_unit(bits.z),
                     rng_to_unit(bits.w));
 }

@@ -80,9 +80,15 @@ fn rng_probe(name: &str, seed: u64, args: &[u32], items: usize, dims: u32) -> Ve
         .collect()
 }
 
-/// `dims` blocks (4 numbers each) for `pixels` pixels of one sample index.
+/// `dims` blocks (4 numbers each) for `pixels` pixels of one sample index: the camera's and
+/// the BSDF's (rng_next4).
 fn stream(seed: u64, sample: u32, pixels: usize, dims: u32) -> Vec<[f32; 4]> {
-    rng_probe("probe_rng_stream", seed, &[sample], pixels, dims)
+    rng_probe("probe_rng_stream", seed, &[sample, 0], pixels, dims)
+}
+
+/// As [`stream`], the light samples' blocks of the first `vertices` vertices (rng_light4).
+fn light_stream(seed: u64, sample: u32, pixels: usize, vertices: u32) -> Vec<[f32; 4]> {
+    rng_probe("probe_rng_stream", seed, &[sample, 1], pixels, vertices)
 }
 
 /// Pearson's chi-square statistic of `counts` against a uniform expectation.
@@ -105,7 +111,16 @@ fn chi_square_critical(dof: f64) -> f64 {
 
 #[test]
 fn numbers_are_uniform_in_one_and_two_dimensions() {
-    let values = stream(0x5eed, 3, 8192, 16);
+    // The BSDF's blocks and the light's, each on its own.
+    for values in [
+        stream(0x5eed, 3, 8192, 16),
+        light_stream(0x5eed, 3, 8192, 8),
+    ] {
+        uniform_in_one_and_two_dimensions(&values);
+    }
+}
+
+fn uniform_in_one_and_two_dimensions(values: &[[f32; 4]]) {
     let flat: Vec<f32> = values.iter().flatten().copied().collect();
     assert!(
         flat.iter().all(|&u| (0.0..1.0).contains(&u)),
@@ -161,7 +176,43 @@ fn streams_of_neighbours_are_uncorrelated() {
     // the next block (padding: each block's sequence is shuffled apart).
     let (a0, a1) = (&a[..a.len() - 1], &a[1..]);
     let (b0, b1) = (&a[..a.len() - 4], &a[4..]);
+    // Each vertex's light numbers against its BSDF's (block k + 1: the camera's comes first)
+    // and against the camera's, whose Sobol points they must not repeat.
+    let light = flat(&light_stream(42, 0, pixels, dims - 1));
+    let (light_len, vertices) = (light.len(), dims as usize - 1);
+    let bsdf: Vec<f64> = a
+        .chunks_exact(per_pixel * 4)
+        .flat_map(|p| p[4..].iter().copied())
+        .take(light_len)
+        .collect();
+    let camera: Vec<f64> = a
+        .chunks_exact(per_pixel * 4)
+        .flat_map(|p| p[..4].iter().copied())
+        .collect();
+    let first_light: Vec<f64> = light
+        .chunks_exact(vertices * 4)
+        .flat_map(|p| p[..4].iter().copied())
+        .collect();
     let limit = 5.0 / (a.len() as f64).sqrt(); // five standard errors of r under independence
+    let light_limit = 5.0 / (light_len as f64).sqrt();
+    let camera_limit = 5.0 / (camera.len() as f64).sqrt();
+    for (what, r, limit) in [
+        (
+            "a vertex's light and BSDF numbers",
+            correlation(&light, &bsdf),
+            light_limit,
+        ),
+        (
+            "the first light and the camera",
+            correlation(&first_light, &camera),
+            camera_limit,
+        ),
+    ] {
+        assert!(
+            r.abs() < limit,
+            "{what}: correlation {r:.5}, limit {limit:.5}"
+        );
+    }
     for (what, r) in [
         ("neighbouring pixels", correlation(&a, &b)),
         ("the two halves", correlation(&a, &other_half)),
@@ -233,9 +284,16 @@ fn sobol_points_follow_the_joe_kuo_direction_numbers() {
     assert_eq!(columns[2][..3], [0x8000_0000, 0xc000_0000, 0x6000_0000]);
 }
 
-/// `dims` blocks of samples `start..start + count` of one pixel.
-fn samples(seed: u64, pixel: u32, start: u32, count: usize, dims: u32) -> Vec<[f32; 4]> {
-    rng_probe("probe_rng_samples", seed, &[pixel, start], count, dims)
+/// `dims` blocks of samples `start..start + count` of one pixel, the light's with `light`.
+fn samples(
+    seed: u64,
+    (pixel, light): (u32, bool),
+    start: u32,
+    count: usize,
+    dims: u32,
+) -> Vec<[f32; 4]> {
+    let args = [pixel, start, u32::from(light)];
+    rng_probe("probe_rng_samples", seed, &args, count, dims)
 }
 
 /// True if the points put exactly one point in each box of a 2^a x 2^(m - a) grid, for every
@@ -257,9 +315,18 @@ fn is_net(points: &[(f32, f32)], m: u32) -> bool {
 fn each_half_of_a_pixels_samples_is_a_net_in_every_block() {
     // Sample s is point (s >> 3) * 4 + (s & 3) of half (s >> 2) & 1: the first 2^m points of
     // each half are among the first 2^(m + 1) samples.
-    let (m, dims) = (10u32, 3u32); // every quasi-random block: SOBOL_BLOCKS in kernels/rng.h
+    // Every quasi-random block: SOBOL_BLOCKS in kernels/rng.h, and the first vertex's light
+    // block after them.
+    let (m, bsdf_blocks) = (10u32, 3u32);
+    let dims = bsdf_blocks + 1;
     for (seed, pixel) in [(1u64, 0u32), (0xdead_beef_0000_0007, 123_457)] {
-        let all = samples(seed, pixel, 0, 2 << m, dims);
+        let bsdf = samples(seed, (pixel, false), 0, 2 << m, bsdf_blocks);
+        let light = samples(seed, (pixel, true), 0, 2 << m, 1);
+        let all: Vec<[f32; 4]> = bsdf
+            .chunks_exact(bsdf_blocks as usize)
+            .zip(&light)
+            .flat_map(|(blocks, light)| blocks.iter().chain(std::iter::once(light)).copied())
+            .collect();
         for half in 0..2u32 {
             let of_half: Vec<&[[f32; 4]]> = all
                 .chunks_exact(dims as usize)
