@@ -925,7 +925,7 @@ impl<'d> Renderer<'d> {
             ))
         });
         let full = spp.and_then(|spp| {
-            strategy::full_round_plan(&scouted, first, &survivors, spp, (width, height), least)
+            strategy::full_round_plan(&scouted, first, &survivors, spp, (width, height))
         });
         let mut choice = match full {
             None => scouted,

@@ -114,11 +114,15 @@ const FULL_ROUND_GAIN: f64 = 2.0;
 /// closer, a larger factor (samples twice the first: k up to 1).
 pub const EXTRAPOLATION_SPAN: u32 = 4;
 
-/// The samples a pixel of a CPU device's trial rounds, at the least ([`least_trial_samples`]):
-/// enough to extrapolate. Its launches cost no latency worth a mention (about 0.1 ms on PoCL),
-/// so fewer pixels with more samples cost it nothing, while a CPU's short renders afford no
-/// second round (BENCHMARKS.md).
-const LEAST_TRIAL_SPP_CPU: u32 = EXTRAPOLATION_SPAN * TRIAL_SPP;
+/// The samples a pixel of a full round, at the least ([`full_round_plan`]): enough to
+/// extrapolate.
+const LEAST_FULL_ROUND_SPP: u32 = EXTRAPOLATION_SPAN * TRIAL_SPP;
+
+/// The samples a pixel of a CPU device's first round too, at the least
+/// ([`least_trial_samples`]). Its launches cost no latency worth a mention (about 0.1 ms on
+/// PoCL), so fewer pixels with more samples cost it nothing, while a CPU's short renders
+/// afford no second round (BENCHMARKS.md).
+const LEAST_TRIAL_SPP_CPU: u32 = LEAST_FULL_ROUND_SPP;
 
 /// The exponent p of the model of how the relative variance of one sample, V(n) = n Var(mean
 /// of n), changes with the samples a pixel n: V(n) = a + b n^-p, a the part that more samples
@@ -549,20 +553,24 @@ pub fn plan_for_budget(budget: f64, height: u32) -> TrialPlan {
 /// [`FULL_ROUND_SHARE`] of the time a render of `spp` samples would take with the
 /// fastest-converging of them (by the scouts' timings), so the round costs the same share
 /// however slow the losers are. It spends that on more samples rather than on more than about
-/// [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]), and at least `least` samples a pixel
-/// ([`least_trial_samples`], [`with_least_samples`]) as the first round: on a CPU, an image
-/// of fewer pixels would otherwise spend it on [`TRIAL_SPP`] samples on every row, whose
-/// figures are not extrapolated and replace the scouts' extrapolated ones. PoCL, smallpt at
-/// 96x72 and 4096 samples, 24 trials: light sampling on with roulette below 1, 37% behind
-/// roulette below 0.3 in the render, chosen 15 times with 8 samples on every pixel, 3 times
-/// with 32 on a quarter of them (BENCHMARKS.md, "At the original's samples on PoCL").
+/// [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]), and at least [`LEAST_FULL_ROUND_SPP`] samples
+/// a pixel ([`with_least_samples`]) on any device: a small image would otherwise spend it on
+/// [`TRIAL_SPP`] samples on every row, whose figures are not extrapolated (and on a CPU
+/// replace the scouts' extrapolated ones).
+/// - PoCL, smallpt at 96x72 and 4096 samples, 24 trials: light sampling on with roulette
+///   below 1, 37% behind roulette below 0.3 in the render, chosen 15 times with 8 samples on
+///   every pixel, 3 times with 32 on a quarter of them (BENCHMARKS.md, "At the original's
+///   samples on PoCL").
+/// - H200, ceiling_room (320x240, 4096 samples), 10 seeds: roulette below 0.5, 12% behind 0.3
+///   in the render, chosen 9 times with 8 samples on every pixel, 2 times with 32 on a quarter
+///   of them; the trial took 0.014 s instead of 0.008 of a 0.44-second render. The GPU's
+///   scouts keep [`TRIAL_SPP`] ([`least_trial_samples`]): they need the pixels to fill it.
 pub fn full_round_plan(
     scout: &Choice,
     scouted: TrialPlan,
     survivors: &[usize],
     spp: u32,
     (width, height): (u32, u32),
-    least: u32,
 ) -> Option<TrialPlan> {
     let chosen = &scout.measured[scout.chosen];
     let total: f64 = survivors
@@ -571,7 +579,7 @@ pub fn full_round_plan(
         .sum();
     let budget = FULL_ROUND_SHARE * f64::from(spp) * chosen.seconds_per_sample / total;
     let plan = plan_on_rows(budget, row_step_for(width, height, TRIAL_PIXELS), height);
-    let plan = with_least_samples(plan, least, (width, height));
+    let plan = with_least_samples(plan, LEAST_FULL_ROUND_SPP, (width, height));
     let gain = plan.cost() >= FULL_ROUND_GAIN * scouted.cost();
     (survivors.len() > 1 && budget.is_finite() && gain).then_some(plan)
 }
@@ -1116,36 +1124,31 @@ mod tests {
         // pixels at most), 16 samples.
         let scouted = scout_plan(4, Some(4000), (640, 480), MIN_SCOUT_PATHS);
         assert_eq!((scouted.row_step, scouted.samples), (4, 8));
-        let plan =
-            full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (640, 480), TRIAL_SPP).unwrap();
-        assert_eq!((plan.row_step, plan.samples), (2, 16));
-        // On 512x512 pixels (2^18) every row.
-        let plan =
-            full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (512, 512), TRIAL_SPP).unwrap();
-        assert_eq!((plan.row_step, plan.samples), (1, 8));
-        // A CPU's takes the samples that extrapolate (32) on a quarter of the pixels, every
-        // row kept, at the same cost.
-        let cpu = least_trial_samples("CPU");
-        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (512, 512), cpu).unwrap();
+        // 16 samples on every 2nd row of 640x480 (2^18 pixels at most) become the samples
+        // that extrapolate (32) on every 4th column of those rows, at the same cost.
+        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (640, 480)).unwrap();
+        assert_eq!((plan.row_step, plan.col_step, plan.samples), (2, 2, 32));
+        // On 512x512 pixels (2^18), 8 samples on every row become 32 on a quarter of the
+        // pixels, every row kept.
+        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (512, 512)).unwrap();
         assert_eq!((plan.row_step, plan.col_step, plan.samples), (1, 4, 32));
         assert_eq!(early_samples(plan.samples, Some(4000)), Some(TRIAL_SPP));
-        // Where the GPU's plan has those samples already, the CPU's is the same.
-        let plan = |least| full_round_plan(&scout, scouted, &[1, 3, 2], 40_000, (640, 480), least);
-        assert_eq!(plan(TRIAL_SPP), plan(cpu));
-        assert!(plan(cpu).unwrap().samples >= cpu);
+        // A longer render's round has those samples already, on rows alone.
+        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 40_000, (640, 480)).unwrap();
+        assert_eq!((plan.col_step, plan.samples), (1, 64));
         // A shorter render affords no more than the scouting round: no full round.
         assert_eq!(
-            full_round_plan(&scout, scouted, &[1, 3, 2], 600, (640, 480), TRIAL_SPP),
+            full_round_plan(&scout, scouted, &[1, 3, 2], 600, (640, 480)),
             None
         );
         assert_eq!(
-            full_round_plan(&scout, scouted, &[2], 4000, (640, 480), TRIAL_SPP),
+            full_round_plan(&scout, scouted, &[2], 4000, (640, 480)),
             None
         );
         // Nor one that would take less than twice the scouts' samples: at 1200 samples 3
         // samples' worth each, 8 samples on every third row (2.7 against the scouts' 2).
         assert_eq!(
-            full_round_plan(&scout, scouted, &[1, 3, 2], 1200, (640, 480), TRIAL_SPP),
+            full_round_plan(&scout, scouted, &[1, 3, 2], 1200, (640, 480)),
             None
         );
         // Merged: the full round's figures for the survivors, the scouts' for the dropped.
