@@ -1,12 +1,12 @@
 #!/bin/bash
 # The estimators of issue 12 side by side, for BENCHMARKS.md: every scene rendered at the given
 # samples with the defaults (the trial's choice, `auto`), and with each fixed setting: light
-# sampling on or off, roulette below 1 (the rule of earlier versions) or 0.3. One CSV row a run:
+# sampling on or off, roulette below 0.5 or 0.3 (the candidates of `auto`), and off with roulette
+# below 1 (the `--no-nee` of before issue 12, which the issue measures against). One CSV row a run:
 #   scene,setting,spp,seconds,relmse_estimate,relmse_x_seconds,estimator
-# The `off:1` row is what `--no-nee` gave before this issue, `on:1` the earlier default.
 #   tools/estimators.sh CLPT OUT.csv SCENE:SPP[:W:H] ...
 # CLPT is the binary; the device comes from $CLPT_DEVICE. SETTINGS="auto off:0.3 ..." runs only
-# those settings. With BEFORE=OLD_CLPT set, each scene
+# those settings; SEED=N renders with seed N (default 1). With BEFORE=OLD_CLPT set, each scene
 # also gets a row `before-off:1`: OLD_CLPT with light sampling off and roulette below 1 (the
 # `--no-nee` that the issue measures against, rendered by the binary of that time).
 set -euo pipefail
@@ -18,7 +18,7 @@ for entry in "$@"; do
   IFS=: read -r file spp w h <<< "$entry"
   size=()
   [ -n "${w:-}" ] && size=(--width "$w" --height "$h")
-  read -r -a settings <<< "${SETTINGS:-auto on:1 off:1 on:0.3 off:0.3}"
+  read -r -a settings <<< "${SETTINGS:-auto off:1 on:0.5 on:0.3 off:0.5 off:0.3}"
   [ -n "${BEFORE:-}" ] && settings+=(before-off:1)
   for setting in "${settings[@]}"; do
     bin=$clpt
@@ -29,7 +29,7 @@ for entry in "$@"; do
     else
       flags=(--light-sampling "${setting%:*}" --rr-threshold "${setting#*:}")
     fi
-    "$bin" render "$file" "${size[@]}" --spp "$spp" --seed 1 -q "${flags[@]}" \
+    "$bin" render "$file" "${size[@]}" --spp "$spp" --seed "${SEED:-1}" -q "${flags[@]}" \
       -o "$tmp/image.pfm" --report "$tmp/report.csv" 2> "$tmp/log" || { cat "$tmp/log"; exit 1; }
     estimator=$(sed -n 's/^# estimator: //p' "$tmp/report.csv" | tr ',' ';')
     last=$(tail -1 "$tmp/report.csv")

@@ -18,7 +18,9 @@ seconds over that setting's render seconds; the table gives its mean over the se
 
 The first --clpt renders the fixed settings; --truth takes them instead from the "fixed" rows
 of an earlier run's CSV (same scenes, samples and sizes, same machine), to compare new trials
-against settings measured once. CLPT_DEVICE picks the device, as for clpt.
+against settings measured once: whichever of a scene's settings it holds (a lit room's settings
+without light sampling, far behind and never chosen, may be left out; a choice it lacks stops
+the run). CLPT_DEVICE picks the device, as for clpt.
 Besides the table, DIR/expected-behind.csv holds one row a fixed setting (binary "fixed": its
 mean render seconds and relMSE × seconds) and one row a trial (the binary: its choice, seed,
 trial seconds and cost behind the best).
@@ -32,7 +34,8 @@ import subprocess
 import sys
 import tempfile
 
-SETTINGS = [("on", "1"), ("on", "0.3"), ("off", "1"), ("off", "0.3")]
+# The candidates of `auto` (src/render/strategy.rs: light sampling on and off, RR_THRESHOLDS).
+SETTINGS = [("on", "0.5"), ("on", "0.3"), ("off", "0.5"), ("off", "0.3")]
 CHOICE = re.compile(
     r"^estimator: light sampling (on|off), roulette below ([0-9.]+) \(chosen in a ([0-9.]+) s trial"
 )
@@ -88,10 +91,13 @@ def main():
         size = ["--width", wh[0], "--height", wh[1]] if wh else []
         name = os.path.basename(file).removesuffix(".txt")
         truth = {}
-        for light, rr in SETTINGS:
+        settings = SETTINGS
+        if a.truth:
+            settings = [k[2] for k in earlier if k[:2] == (name, spp)]
+            if not settings:
+                sys.exit(f"{a.truth} has no fixed rows for {name}, {spp}")
+        for light, rr in settings:
             if a.truth:
-                if (name, spp, (light, rr)) not in earlier:
-                    sys.exit(f"{a.truth} has no fixed row for {name}, {spp}, {light}:{rr}")
                 seconds, product = earlier[(name, spp, (light, rr))]
             else:
                 runs = [fixed(a.clpt[0], file, spp, size, s, light, rr, tmp)
@@ -105,6 +111,8 @@ def main():
         for seed in range(1, a.seeds + 1):
             for clpt in a.clpt:
                 setting, trial = choice(clpt, file, spp, size, seed, tmp)
+                if setting not in truth:
+                    sys.exit(f"{name}: {clpt} chose {setting}, which {a.truth} lacks")
                 seconds, product = truth[setting]
                 behind = product / best - 1 + trial / seconds
                 rows.append([name, spp, os.path.basename(clpt), ":".join(setting), seed,
