@@ -134,9 +134,8 @@ inline bool path_bounce(const Scene* sc, Path* p) {
      * smooth meshes) included: nee.h joins the light's trio to material.h's. */
     p->sampled_light = !bsdf_is_delta(sm.type) && params->num_lights > 0u;
     if (p->sampled_light) {
-        const float4 u_light = rng_light4(&p->rng, p->depth);
-        p->radiance += p->throughput * sample_light(sc, s, sm.type, sm.color, -d,
-                                                    sm.shading_normal, u_light);
+        p->radiance += p->throughput * sample_light(sc, s, sm.type, sm.color, -d, sm.shading_normal,
+                                                    rng_light4(&p->rng, p->depth));
     }
 #endif
     float3 wi;

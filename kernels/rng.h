@@ -18,7 +18,8 @@
  * seeds that Philox draws from (seed, p, b, half): Burley's "shuffled scrambled Sobol" with
  * padding (JCGT 2020), pbrt-v4's PaddedSobolSampler. Later blocks are Philox numbers of
  * (pixel, s, b) (the counter-based generator alone); the first vertex's light block is a
- * Sobol block too (b = LIGHT_BLOCK), later vertices' Philox numbers of (pixel, s, vertex, 1).
+ * Sobol block too (b = 2^31, which no path's BSDF blocks reach), later vertices' Philox numbers
+ * of (pixel, s, vertex, 1).
  * Each number is uniform on [0, 1) and the blocks of one sample independent, so every estimate
  * stays unbiased; within a block a pixel's samples fill the four dimensions evenly, which
  * lowers the error of the camera's and the first bounces' integrals (measured in
@@ -69,9 +70,9 @@ typedef struct Rng {
     uint4 quasi0, quasi1, quasi2; /* blocks dimension .. SOBOL_BLOCKS - 1, next first */
 } Rng;
 
-/* The top 24 bits of a word as a float in [0, 1): every value is exact, 1 is never reached. */
-inline float rng_to_unit(uint bits) {
-    return (float)(bits >> 8) * 0x1.0p-24f;
+/* The top 24 bits of each word as a float in [0, 1): every value is exact, 1 is never reached. */
+inline float4 rng_to_unit4(uint4 bits) {
+    return convert_float4(bits >> 8u) * 0x1.0p-24f;
 }
 
 /* Blocks 0 .. SOBOL_BLOCKS - 1 are quasi-random: the camera's and the first two bounces' BSDF
@@ -81,9 +82,6 @@ inline float rng_to_unit(uint bits) {
  * times the error in a room with light sampling. Rng holds exactly this many (quasi0 ..
  * quasi2). */
 #define SOBOL_BLOCKS 3u
-
-/* The Sobol block of the first vertex's light sample: an index no path's BSDF blocks reach. */
-#define LIGHT_BLOCK 0x80000000u
 
 /* Quasi-random block `block` of sample `sample` in pixel `pixel`: Philox of the counter
  * (pixel, block, half, ~0) under the seed gives the shuffle and scrambling seeds, the sample
@@ -117,8 +115,7 @@ inline Rng rng_for_path(uint seed_lo, uint seed_hi, uint pixel, uint sample) {
 
 /* Four uniform numbers in [0, 1) from the next dimension block. */
 inline float4 rng_next4(Rng* rng) {
-    const uint block = rng->dimension;
-    rng->dimension += 1u;
+    const uint block = rng->dimension++;
     uint4 bits;
     if (block < SOBOL_BLOCKS) {
         bits = rng->quasi0;
@@ -127,19 +124,15 @@ inline float4 rng_next4(Rng* rng) {
     } else {
         bits = philox4x32_10((uint4)(rng->pixel, rng->sample, block, 0u), rng->key);
     }
-    return (float4)(rng_to_unit(bits.x), rng_to_unit(bits.y), rng_to_unit(bits.z),
-                    rng_to_unit(bits.w));
+    return rng_to_unit4(bits);
 }
 
 /* Four uniform numbers for the light sample at vertex `vertex` (0 the first) of the path, from
  * blocks apart from the BSDF's (see the top of this file for why): quasi-random at the first
  * vertex, where light sampling spends most of its samples, Philox numbers later. */
-inline float4 rng_light4(const Rng* rng, uint vertex) {
-    const uint4 bits =
-        vertex == 0u ? rng_quasi_block(rng->key, rng->pixel, rng->sample, LIGHT_BLOCK)
-                     : philox4x32_10((uint4)(rng->pixel, rng->sample, vertex, 1u), rng->key);
-    return (float4)(rng_to_unit(bits.x), rng_to_unit(bits.y), rng_to_unit(bits.z),
-                    rng_to_unit(bits.w));
+inline float4 rng_light4(const Rng* r, uint vertex) {
+    return rng_to_unit4(vertex ? philox4x32_10((uint4)(r->pixel, r->sample, vertex, 1u), r->key)
+                               : rng_quasi_block(r->key, r->pixel, r->sample, 0x80000000u));
 }
 
 #endif
