@@ -925,7 +925,8 @@ impl<'d> Renderer<'d> {
             ))
         });
         let full = spp.and_then(|spp| {
-            strategy::full_round_plan(&scouted, first, &survivors, spp, (width, height))
+            let fill = strategy::full_round_least_pixels(&kind);
+            strategy::full_round_plan(&scouted, first, &survivors, spp, (width, height), fill)
         });
         let mut choice = match full {
             None => scouted,

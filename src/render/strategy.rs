@@ -118,6 +118,27 @@ pub const EXTRAPOLATION_SPAN: u32 = 4;
 /// extrapolate.
 const LEAST_FULL_ROUND_SPP: u32 = EXTRAPOLATION_SPAN * TRIAL_SPP;
 
+/// The pixels a GPU's full round keeps, at the least, where taking [`LEAST_FULL_ROUND_SPP`]
+/// thins them out ([`full_round_least_pixels`]).
+const GPU_FULL_ROUND_PIXELS: u64 = 1 << 16;
+
+/// The pixels a full round on a device of `kind` keeps at the least when it raises its samples
+/// to [`LEAST_FULL_ROUND_SPP`] ([`with_least_samples_on`]): none on a CPU, where fewer pixels
+/// at the same cost cost nothing; [`GPU_FULL_ROUND_PIXELS`] on a GPU. A GPU's seconds a path
+/// depend on how full its launches keep it, and a launch of a few thousand work-items takes
+/// as long as its slowest lanes: H200, ceiling_room at 320x240 (4096 samples), 10 seeds, a
+/// full round of 32 samples on 19,200 pixels read roulette below 0.3 at 1.16 times 0.5's
+/// seconds a path, where one of 8 samples on all 76,800 read 1.08 to 1.12 and the renders
+/// 1.08, and chose 0.5, 12% behind, in 2 or 3 of the 10. Its launches being mostly idle, 32
+/// samples on all 76,800 pixels cost it about as long.
+pub fn full_round_least_pixels(kind: &str) -> u64 {
+    if kind == "CPU" {
+        0
+    } else {
+        GPU_FULL_ROUND_PIXELS
+    }
+}
+
 /// The samples a pixel of a CPU device's first round too, at the least
 /// ([`least_trial_samples`]). Its launches cost no latency worth a mention (about 0.1 ms on
 /// PoCL), so fewer pixels with more samples cost it nothing, while a CPU's short renders
@@ -174,11 +195,23 @@ pub fn least_trial_samples(kind: &str) -> u32 {
 /// of 160x120 kept 2 rows, which read light sampling's variance a quarter above the image's);
 /// more than a work-group's rows in whole groups ([`rows_in_whole_groups`]); never fewer than
 /// one row or column.
-pub fn with_least_samples(plan: TrialPlan, least: u32, (width, height): (u32, u32)) -> TrialPlan {
+pub fn with_least_samples(plan: TrialPlan, least: u32, size: (u32, u32)) -> TrialPlan {
+    with_least_samples_on(plan, least, size, 0)
+}
+
+/// [`with_least_samples`], thinning the plan's pixels no further than to `least_pixels` (where
+/// it has more; none where it has fewer): the samples then cost more than the plan's.
+pub fn with_least_samples_on(
+    plan: TrialPlan,
+    least: u32,
+    (width, height): (u32, u32),
+    least_pixels: u64,
+) -> TrialPlan {
     if plan.samples >= least {
         return plan;
     }
-    let factor = f64::from(least) / f64::from(plan.samples.max(1));
+    let room = plan.pixels((width, height)) as f64 / least_pixels as f64;
+    let factor = (f64::from(least) / f64::from(plan.samples.max(1))).min(room.max(1.0));
     let width_left = f64::from(width.max(1)) / f64::from(plan.col_step.max(1));
     let columns = factor.min(width_left).floor().max(1.0);
     let rows = factor / columns;
@@ -508,6 +541,12 @@ impl TrialPlan {
     pub fn cost(&self) -> f64 {
         f64::from(self.samples) / (f64::from(self.row_step) * f64::from(self.col_step))
     }
+
+    /// The pixels it takes on an image of `width` x `height`: its rows ([`trial_rows`]) times
+    /// its columns, counted alike (render/mod.rs, `Rows::columns`).
+    pub fn pixels(&self, (width, height): (u32, u32)) -> u64 {
+        u64::from(trial_rows(self.row_step, height)) * u64::from(trial_rows(self.col_step, width))
+    }
 }
 
 /// The trial's size: each candidate gets [`TRIAL_SHARE`] of a render of `spp` samples divided
@@ -554,16 +593,18 @@ pub fn plan_for_budget(budget: f64, height: u32) -> TrialPlan {
 /// fastest-converging of them (by the scouts' timings), so the round costs the same share
 /// however slow the losers are. It spends that on more samples rather than on more than about
 /// [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]), and at least [`LEAST_FULL_ROUND_SPP`] samples
-/// a pixel ([`with_least_samples`]) on any device: a small image would otherwise spend it on
-/// [`TRIAL_SPP`] samples on every row, whose figures are not extrapolated (and on a CPU
-/// replace the scouts' extrapolated ones).
+/// a pixel on any device, on pixels thinned out no further than to `least_pixels`
+/// ([`with_least_samples_on`], [`full_round_least_pixels`]): a small image would otherwise
+/// spend it on [`TRIAL_SPP`] samples on every row, whose figures are not extrapolated (and on
+/// a CPU replace the scouts' extrapolated ones).
 /// - PoCL, smallpt at 96x72 and 4096 samples, 24 trials: light sampling on with roulette
 ///   below 1, 37% behind roulette below 0.3 in the render, chosen 15 times with 8 samples on
 ///   every pixel, 3 times with 32 on a quarter of them (BENCHMARKS.md, "At the original's
 ///   samples on PoCL").
 /// - H200, ceiling_room (320x240, 4096 samples), 10 seeds: roulette below 0.5, 12% behind 0.3
-///   in the render, chosen 9 times with 8 samples on every pixel, 2 times with 32 on a quarter
-///   of them; the trial took 0.014 s instead of 0.008 of a 0.44-second render. The GPU's
+///   in the render, chosen 9 times with 8 samples on every pixel, 2 to 3 times with 32 on a
+///   quarter of them (whose timings were off: [`full_round_least_pixels`]), never with 32 on
+///   every pixel; the trial took 0.008, 0.014 and 0.017 s of a 0.45-second render. The GPU's
 ///   scouts keep [`TRIAL_SPP`] ([`least_trial_samples`]): they need the pixels to fill it.
 pub fn full_round_plan(
     scout: &Choice,
@@ -571,6 +612,7 @@ pub fn full_round_plan(
     survivors: &[usize],
     spp: u32,
     (width, height): (u32, u32),
+    least_pixels: u64,
 ) -> Option<TrialPlan> {
     let chosen = &scout.measured[scout.chosen];
     let total: f64 = survivors
@@ -579,7 +621,7 @@ pub fn full_round_plan(
         .sum();
     let budget = FULL_ROUND_SHARE * f64::from(spp) * chosen.seconds_per_sample / total;
     let plan = plan_on_rows(budget, row_step_for(width, height, TRIAL_PIXELS), height);
-    let plan = with_least_samples(plan, LEAST_FULL_ROUND_SPP, (width, height));
+    let plan = with_least_samples_on(plan, LEAST_FULL_ROUND_SPP, (width, height), least_pixels);
     let gain = plan.cost() >= FULL_ROUND_GAIN * scouted.cost();
     (survivors.len() > 1 && budget.is_finite() && gain).then_some(plan)
 }
@@ -1103,6 +1145,14 @@ mod tests {
         }
     }
 
+    fn plan_of(row_step: u32, col_step: u32, samples: u32) -> TrialPlan {
+        TrialPlan {
+            row_step,
+            col_step,
+            samples,
+        }
+    }
+
     #[test]
     fn scouting_drops_the_clearly_worse_and_keeps_the_close() {
         let scout = Choice {
@@ -1126,29 +1176,37 @@ mod tests {
         assert_eq!((scouted.row_step, scouted.samples), (4, 8));
         // 16 samples on every 2nd row of 640x480 (2^18 pixels at most) become the samples
         // that extrapolate (32) on every 4th column of those rows, at the same cost.
-        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (640, 480)).unwrap();
+        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (640, 480), 0).unwrap();
         assert_eq!((plan.row_step, plan.col_step, plan.samples), (2, 2, 32));
         // On 512x512 pixels (2^18), 8 samples on every row become 32 on a quarter of the
         // pixels, every row kept.
-        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (512, 512)).unwrap();
+        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (512, 512), 0).unwrap();
         assert_eq!((plan.row_step, plan.col_step, plan.samples), (1, 4, 32));
         assert_eq!(early_samples(plan.samples, Some(4000)), Some(TRIAL_SPP));
+        // A GPU keeps 2^16 pixels at the least: on 320x240 (ceiling_room) every one of the
+        // 76,800, at four times the cost; on 512x512 a quarter, as a CPU.
+        let gpu = full_round_least_pixels("GPU");
+        assert_eq!(full_round_least_pixels("CPU"), 0);
+        let plan = |size, fill| full_round_plan(&scout, scouted, &[1, 3, 2], 4096, size, fill);
+        assert_eq!(plan((320, 240), 0).unwrap(), plan_of(1, 4, 32));
+        assert_eq!(plan((320, 240), gpu).unwrap(), plan_of(1, 1, 32));
+        assert_eq!(plan((512, 512), gpu), plan((512, 512), 0));
         // A longer render's round has those samples already, on rows alone.
-        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 40_000, (640, 480)).unwrap();
+        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 40_000, (640, 480), 0).unwrap();
         assert_eq!((plan.col_step, plan.samples), (1, 64));
         // A shorter render affords no more than the scouting round: no full round.
         assert_eq!(
-            full_round_plan(&scout, scouted, &[1, 3, 2], 600, (640, 480)),
+            full_round_plan(&scout, scouted, &[1, 3, 2], 600, (640, 480), 0),
             None
         );
         assert_eq!(
-            full_round_plan(&scout, scouted, &[2], 4000, (640, 480)),
+            full_round_plan(&scout, scouted, &[2], 4000, (640, 480), 0),
             None
         );
         // Nor one that would take less than twice the scouts' samples: at 1200 samples 3
         // samples' worth each, 8 samples on every third row (2.7 against the scouts' 2).
         assert_eq!(
-            full_round_plan(&scout, scouted, &[1, 3, 2], 1200, (640, 480)),
+            full_round_plan(&scout, scouted, &[1, 3, 2], 1200, (640, 480), 0),
             None
         );
         // Merged: the full round's figures for the survivors, the scouts' for the dropped.
