@@ -370,11 +370,10 @@ impl Rows {
         strategy::trial_first_row(self.col_step)
     }
 
-    /// The columns taken on an image `width` wide.
+    /// The columns taken on an image `width` wide: every `col_step`-th from the first, counted
+    /// as a trial's rows are.
     pub fn columns(&self, width: u32) -> u32 {
-        width
-            .saturating_sub(self.first_column())
-            .div_ceil(self.col_step.max(1))
+        strategy::trial_rows(self.col_step, width)
     }
 }
 

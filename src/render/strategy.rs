@@ -210,8 +210,12 @@ pub fn with_least_samples_on(
     if plan.samples >= least {
         return plan;
     }
-    let room = plan.pixels((width, height)) as f64 / least_pixels as f64;
-    let factor = (f64::from(least) / f64::from(plan.samples.max(1))).min(room.max(1.0));
+    // How far the pixels may thin out: without a floor, as far as the samples ask.
+    let room = match least_pixels {
+        0 => f64::INFINITY,
+        floor => (plan.pixels((width, height)) as f64 / floor as f64).max(1.0),
+    };
+    let factor = (f64::from(least) / f64::from(plan.samples.max(1))).min(room);
     let width_left = f64::from(width.max(1)) / f64::from(plan.col_step.max(1));
     let columns = factor.min(width_left).floor().max(1.0);
     let rows = factor / columns;
@@ -267,7 +271,8 @@ pub fn trial_first_row(step: u32) -> u32 {
 }
 
 /// The rows a trial round takes on an image `height` high with a row step `step`: every
-/// `step`-th from [`trial_first_row`] (render/mod.rs, `trial_round`).
+/// `step`-th from [`trial_first_row`] (render/mod.rs, `trial_round`); its columns likewise
+/// (`Rows::columns`).
 pub fn trial_rows(step: u32, height: u32) -> u32 {
     height
         .saturating_sub(trial_first_row(step))
@@ -542,8 +547,8 @@ impl TrialPlan {
         f64::from(self.samples) / (f64::from(self.row_step) * f64::from(self.col_step))
     }
 
-    /// The pixels it takes on an image of `width` x `height`: its rows ([`trial_rows`]) times
-    /// its columns, counted alike (render/mod.rs, `Rows::columns`).
+    /// The pixels it takes on an image of `width` x `height`: its rows times its columns, both
+    /// counted by [`trial_rows`] (as render/mod.rs's `Rows` counts them).
     pub fn pixels(&self, (width, height): (u32, u32)) -> u64 {
         u64::from(trial_rows(self.row_step, height)) * u64::from(trial_rows(self.col_step, width))
     }
@@ -1266,11 +1271,7 @@ mod tests {
             (least_trial_samples("CPU"), least_trial_samples("GPU")),
             (32, 8)
         );
-        let plan = |row_step, col_step, samples| TrialPlan {
-            row_step,
-            col_step,
-            samples,
-        };
+        let plan = plan_of;
         let size = (160, 120);
         // 30 rows become 24 (whole work-groups of 8 rows), the columns every 3rd to make up.
         assert_eq!(with_least_samples(plan(4, 1, 8), 32, size), plan(5, 3, 32));
