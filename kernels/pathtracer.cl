@@ -83,6 +83,8 @@ typedef struct Path {
     bool sampled_light; /* the previous vertex sampled a light too (nee.h) */
     float3 prev_p;
     float prev_pdf;
+    uint prev_light;      /* the entry it picked, and its density there if the same at every */
+    float prev_light_pdf; /* direction, else 0 (nee.h emission_weight) */
 #endif
 } Path;
 
@@ -99,6 +101,8 @@ inline Path path_start(const Scene* sc, uint px, uint py, uint sample) {
     p.sampled_light = false;
     p.prev_p = (float3)(0.0f);
     p.prev_pdf = 0.0f;
+    p.prev_light = 0u;
+    p.prev_light_pdf = 0.0f;
 #endif
     return p;
 }
@@ -121,7 +125,9 @@ inline bool path_bounce(const Scene* sc, Path* p) {
 #if CLPT_NEE
     if (any(sm.emission != (float3)(0.0f))) {
         const float w_emission =
-            p->sampled_light ? emission_weight(sc, hit, s, p->prev_p, p->prev_pdf, d) : 1.0f;
+            p->sampled_light ? emission_weight(sc, hit, s, p->prev_p, p->prev_pdf, d,
+                                               p->prev_light, p->prev_light_pdf)
+                             : 1.0f;
         p->radiance += p->throughput * sm.emission * w_emission;
     }
 #else
@@ -135,7 +141,8 @@ inline bool path_bounce(const Scene* sc, Path* p) {
     p->sampled_light = !bsdf_is_delta(sm.type) && params->num_lights > 0u;
     if (p->sampled_light) {
         p->radiance += p->throughput * sample_light(sc, s, sm.type, sm.color, -d, sm.shading_normal,
-                                                    rng_light4(&p->rng, p->depth));
+                                                    rng_light4(&p->rng, p->depth),
+                                                    &p->prev_light, &p->prev_light_pdf);
     }
 #endif
     float3 wi;

@@ -38,6 +38,7 @@ inline void plane_surface(__global const Plane* pl, float3 o, float3 d, float t,
     *p_error = error_gamma(6.0f) * (fabs(*p) + fabs(pl->offset));
 }
 
+#if CLPT_TEXTURES
 /* Texture coordinates, as the original's plane.cuh: the plane tiles from centerp along dirU
  * and dirV, whose lengths are the inverse tile sizes. */
 inline float2 plane_uv(__global const Plane* pl, float3 p) {
@@ -50,5 +51,6 @@ inline void plane_tangents(__global const Plane* pl, float3* dpdu, float3* dpdv)
     *dpdu = normalize(vload3(0, pl->dir_u));
     *dpdv = normalize(vload3(0, pl->dir_v));
 }
+#endif
 
 #endif

@@ -180,8 +180,9 @@ __kernel void probe_light_sample(__global const Light* lights, __global const fl
     const float3 p = vload3(0, in);
     float3 wi = (float3)(0.0f), q = (float3)(0.0f), q_error = (float3)(0.0f), q_normal;
     float pdf = 0.0f;
-    const bool ok =
-        light_sample(&lights[0], p, (float2)(in[3], in[4]), &wi, &q, &q_error, &q_normal, &pdf);
+    bool uniform;
+    const bool ok = light_sample(&lights[0], p, (float2)(in[3], in[4]), &wi, &q, &q_error,
+                                 &q_normal, &pdf, &uniform);
     __global float* r = out + 12 * i;
     vstore3(wi, 0, r);
     vstore3(q, 1, r);

@@ -64,6 +64,7 @@ inline void sphere_surface(__global const Sphere* s, float3 o, float3 d, float t
     *p_error = error_gamma(4.0f) * (fabs(*p) + fabs(delta)) + 64.0f * u * u * (length(center) + 2.0f * r);
 }
 
+#if CLPT_TEXTURES
 /* Texture coordinates from the unit outward normal, as the original's sphere.cuh:
  * u = atan2(n.x, n.z) / 2pi + 1/2 (longitude, 1/2 towards +z), v = n.y / 2 + 1/2 (linear in
  * height: the south pole is v = 0, the north pole v = 1). */
@@ -84,5 +85,6 @@ inline void sphere_tangents(float3 n, float3* dpdu, float3* dpdv) {
     *dpdu = (float3)(n.z, 0.0f, -n.x) / rho;
     *dpdv = (float3)(-n.y * n.x / rho, rho, -n.y * n.z / rho);
 }
+#endif
 
 #endif

@@ -205,8 +205,10 @@ typedef struct Light {
     float cdf;             /* the sum of prob up to and including this entry */
     float cap_height;      /* a sphere's visible cap: the points q with
                             * dot(q - corner, normal) >= radius - cap_height; 0: all of it */
+    uint solid_angle;      /* 1: a rectangle sampled by the solid angle it subtends (nee.h
+                            * sph_rect; a wall of the closed room); 0: by area */
 } Light;
-CLPT_ASSERT_SIZE(Light, 84);
+CLPT_ASSERT_SIZE(Light, 88);
 
 /* Everything a render launch needs besides the object arrays, uploaded once per render. */
 typedef struct RenderParams {

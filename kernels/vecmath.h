@@ -5,15 +5,20 @@
 #ifndef CLPT_VECMATH_H
 #define CLPT_VECMATH_H
 
+#include "features.h"
+
 inline float max_component(float3 v) {
     return fmax(v.x, fmax(v.y, v.z));
 }
 
-/* The fractional part in [0, 1) (x - floor(x) rounds to 1 for tiny negative x). */
+#if CLPT_TEXTURES
+/* The fractional part in [0, 1) (x - floor(x) rounds to 1 for tiny negative x), for texture
+ * coordinates. */
 inline float frac_unit(float x) {
     const float f = x - floor(x);
     return f < 1.0f ? f : 0.0f;
 }
+#endif
 
 /* An orthonormal basis around unit n without branches on its direction (Duff et al., "Building
  * an orthonormal basis, revisited", JCGT 2017). */

@@ -10,6 +10,11 @@
 //!   leave them) and triangles (the host's, of a scaled and rotated mesh, seen from both sides):
 //!   uniform area sampling follows `light_pdf` from above, from close by at grazing angles, and
 //!   from far away.
+//! - A room's emitting wall, sampled by solid angle (Ureña et al. 2013): from the floor, from a
+//!   wall beside it, from close below it near 2π sr, from a point where it subtends 0.02 sr,
+//!   and, past the solid angles nee.h samples so, by area; near the origin and 1e5 from it.
+//!   The quadrature of the expected bin masses is graded towards the point, so that cells close
+//!   to it stay small.
 //! - Every sample: its point lies on the light, its direction points at it, and its pdf is
 //!   `light_pdf` there; `light_pdf` equals its f64 form; nothing is sampled from inside a sphere
 //!   or behind a square.
@@ -254,10 +259,39 @@ fn edge_params(l: &Light, x: DVec3) -> (f64, f64) {
     )
 }
 
-/// light_pdf in f64: a sphere's cone, uniformly; a square's or triangle's area, uniformly,
-/// turned into solid angle (t² / (cos A)); the light's pick probability `prob` times that.
+/// The solid angle of the triangle (a, b, c) seen from p (Van Oosterom and Strackee 1983,
+/// "The Solid Angle of a Plane Triangle"): accurate for small triangles, and a formula of its
+/// own against the kernel's sum of a quadrilateral's angles.
+fn triangle_solid_angle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let (a, b, c) = (a - p, b - p, c - p);
+    let (la, lb, lc) = (a.length(), b.length(), c.length());
+    let num = a.dot(b.cross(c)).abs();
+    let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+    2.0 * num.atan2(den)
+}
+
+/// The solid angle a square light l subtends from p, if it is sampled so: marked for it (a
+/// wall's rectangle), p in front of it, subtending between nee.h's SPH_RECT_MIN (0.01) and
+/// SPH_RECT_MAX (6.2).
+fn rectangle_solid_angle(l: &Light, p: DVec3) -> Option<f64> {
+    let front = (p - v(l.corner)).dot(v(l.normal)) > 0.0;
+    if l.solid_angle == 0 || !front {
+        return None;
+    }
+    let cs = corners(l);
+    let s =
+        triangle_solid_angle(p, cs[0], cs[1], cs[2]) + triangle_solid_angle(p, cs[0], cs[2], cs[3]);
+    (0.01..=6.2).contains(&s).then_some(s)
+}
+
+/// light_pdf in f64: a sphere's cone, uniformly; a rectangle's solid angle, uniformly where it
+/// is sampled so; other squares' and triangles' area, uniformly, turned into solid angle
+/// (t² / (cos A)); the light's pick probability `prob` times that.
 fn light_pdf_f64(l: &Light, p: DVec3, d: DVec3, t: f64) -> f64 {
     let prob = f64::from(l.prob);
+    if let Some(s) = rectangle_solid_angle(l, p) {
+        return prob / s;
+    }
     if l.kind == OBJECT_SPHERE && l.cap_height > 0.0 {
         let n = (p + t * d - v(l.corner)).normalize();
         return prob * t * t / (-n.dot(d) * f64::from(l.area));
@@ -454,33 +488,61 @@ fn area_nodes(l: &Light, p: DVec3, m: usize) -> (Vec<DVec3>, Vec<f64>, Vec<f64>)
     let normal = e1.cross(e2);
     let area = normal.length() * if l.kind == OBJECT_MESH { 0.5 } else { 1.0 };
     let normal = normal.normalize();
+    // (a, b, share of the area) of each cell's centroid.
     let mut centroids = Vec::with_capacity(m * m);
     let step = 1.0 / m as f64;
-    for i in 0..m {
-        for j in 0..m {
-            let (a, b) = (i as f64 * step, j as f64 * step);
-            if l.kind != OBJECT_MESH {
-                centroids.push((a + 0.5 * step, b + 0.5 * step));
-            } else if i + j < m {
-                centroids.push((a + step / 3.0, b + step / 3.0));
-                if i + j + 1 < m {
-                    centroids.push((a + 2.0 * step / 3.0, b + 2.0 * step / 3.0));
+    if l.kind != OBJECT_MESH {
+        // Cells graded towards p's foot on the plane, so that none subtends much more than
+        // the others from p close by (see graded).
+        let height = (p - c).dot(normal).abs();
+        let (a, b) = edge_params(l, p);
+        let ka = graded(a, height / e1.length(), m);
+        let kb = graded(b, height / e2.length(), m);
+        for i in 0..m {
+            for j in 0..m {
+                let (da, db) = (ka[i + 1] - ka[i], kb[j + 1] - kb[j]);
+                centroids.push((ka[i] + 0.5 * da, kb[j] + 0.5 * db, da * db));
+            }
+        }
+    } else {
+        for i in 0..m {
+            for j in 0..m {
+                let (a, b) = (i as f64 * step, j as f64 * step);
+                let share = step * step;
+                if i + j < m {
+                    centroids.push((a + step / 3.0, b + step / 3.0, share));
+                    if i + j + 1 < m {
+                        centroids.push((a + 2.0 * step / 3.0, b + 2.0 * step / 3.0, share));
+                    }
                 }
             }
         }
     }
     assert_eq!(centroids.len(), m * m);
-    let da = area / (m * m) as f64;
     let (mut ws, mut solid_angles, mut ts) = (vec![], vec![], vec![]);
-    for (a, b) in centroids {
+    for (a, b, share) in centroids {
         let to = c + e1 * a + e2 * b - p;
         let t = to.length();
         let w = to / t;
         ws.push(w);
-        solid_angles.push(w.dot(normal).abs() * da / (t * t));
+        solid_angles.push(w.dot(normal).abs() * area * share / (t * t));
         ts.push(t);
     }
     (ws, solid_angles, ts)
+}
+
+/// m + 1 breakpoints from 0 to 1 along an edge, spaced in proportion to the distance from a
+/// point at `height` above `foot` (both in the edge's lengths): foot + height sinh(s) at equal
+/// steps of s. Far away (height large) they are nearly equal steps; close by, the cells under
+/// the point shrink as it approaches, so the midpoint rule stays accurate there.
+fn graded(foot: f64, height: f64, m: usize) -> Vec<f64> {
+    let h = height.max(1e-12);
+    let (s0, s1) = ((-foot / h).asinh(), ((1.0 - foot) / h).asinh());
+    let mut k: Vec<f64> = (0..=m)
+        .map(|i| (foot + h * (s0 + (s1 - s0) * i as f64 / m as f64).sinh()).clamp(0.0, 1.0))
+        .collect();
+    (k[0], k[m]) = (0.0, 1.0);
+    k
 }
 
 /// Cone sampling of a sphere light (radius 0.4) from 1.0001, 1.01, 1.5, 4, 100, 1000 and 10000
@@ -585,6 +647,7 @@ fn square_parallelogram_and_triangle_sampling_follows_light_pdf() {
         prob: 1.0,
         cdf: 1.0,
         cap_height: 0.0,
+        solid_angle: 0,
     };
     for (what, l, back) in [
         ("square", square, false),
@@ -616,6 +679,50 @@ fn square_parallelogram_and_triangle_sampling_follows_light_pdf() {
                 &mut rng,
                 500_000,
             );
+        }
+    }
+}
+
+/// Sampling by solid angle (nee.h `sph_rect`): ceiling_room's ceiling, clipped to its room
+/// (200 x 400 at y = 160, emitting downwards), from the floor, from a wall a rounding of the
+/// ceiling's edge away (grazing), from 3 below it inside its footprint (6.15 sr, near
+/// SPH_RECT_MAX), from 1 below it (6.24 sr, past SPH_RECT_MAX: sampled by area), from far away (0.02
+/// sr, near SPH_RECT_MIN); and the same room moved 1e5 from the origin. The f64 density (two
+/// triangles' solid angles) says which of the two ways each point is sampled.
+#[test]
+fn rectangle_sampling_by_solid_angle_follows_light_pdf() {
+    let probes = Probes::new();
+    let mut rng = SmallRng::seed_from_u64(44);
+    for shift in [DVec3::ZERO, DVec3::new(1e5, -2e4, 3e4)] {
+        let corner = DVec3::new(-100.0, 160.0, -100.0) + shift;
+        let ceiling = Light {
+            kind: OBJECT_PLANE,
+            index: 0,
+            triangle: 0,
+            material: 0,
+            corner: corner.as_vec3().to_array(),
+            edge1: [200.0, 0.0, 0.0],
+            edge2: [0.0, 0.0, 400.0],
+            normal: [0.0, -1.0, 0.0],
+            radius: 0.0,
+            area: 80000.0,
+            prob: 1.0,
+            cdf: 1.0,
+            cap_height: 0.0,
+            solid_angle: 1,
+        };
+        for (place, p, solid_angle) in [
+            ("floor", DVec3::new(0.0, 0.0, 100.0), true),
+            ("wall by its edge", DVec3::new(-95.0, 150.0, 20.0), true),
+            ("3 below", DVec3::new(10.0, 157.0, 80.0), true),
+            ("1 below", DVec3::new(10.0, 159.0, 80.0), false),
+            ("far", DVec3::new(300.0, -1800.0, 500.0), true),
+        ] {
+            let p = p + shift;
+            let name = format!("ceiling from the {place}, shifted {shift}");
+            let s = rectangle_solid_angle(&ceiling, p.as_vec3().as_dvec3());
+            assert_eq!(s.is_some(), solid_angle, "{name}: solid angle {s:?}");
+            check_light(&probes, &name, &ceiling, p, &mut rng, 500_000);
         }
     }
 }

@@ -219,6 +219,8 @@ fn assert_case2_lights(lights: &[Light]) {
     // Same emission: picked in proportion to the clipped areas.
     let ratio = f64::from(ceiling.prob) / f64::from(front.prob);
     assert!(close(ratio, 220.0 / 32.0, 1e-3), "{ratio}");
+    // Both are walls of the room: sampled by solid angle (kernels/nee.h sph_rect).
+    assert_eq!((ceiling.solid_angle, front.solid_angle), (1, 1));
 }
 
 #[test]
@@ -251,6 +253,7 @@ fn assert_unclipped(packed: &PackedScene, what: &str) {
     for l in &packed.lights {
         assert_eq!(l.area, 4e6, "{what}: {l:?}");
         assert_eq!(v(l.edge1).length(), 2000.0, "{what}: {l:?}");
+        assert_eq!(l.solid_angle, 0, "{what}: no room, no wall: by area");
     }
 }
 
@@ -363,6 +366,7 @@ fn a_lamp_panel_under_the_ceiling_does_not_open_the_room() {
     let panel = plane_light(&packed.lights, 6);
     assert_eq!(panel.area, 1600.0);
     assert_eq!(v(panel.corner), DVec3::new(-20.0, 150.0, -20.0));
+    assert_eq!(panel.solid_angle, 0, "not a wall: sampled by area");
 }
 
 /// Emitters no point of the room sees are dropped: a square above the ceiling facing down

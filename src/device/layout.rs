@@ -268,8 +268,11 @@ pub struct Light {
     /// A sphere's visible cap: its height along `normal` from the sphere's far side towards
     /// it; 0 for the whole sphere (src/device/lights.rs, `visible_cap`).
     pub cap_height: f32,
+    /// 1: a rectangle sampled by the solid angle it subtends (`kernels/nee.h` `sph_rect`): a
+    /// wall of the closed room (src/device/lights.rs); 0: sampled by area.
+    pub solid_angle: u32,
 }
-const _: () = assert!(size_of::<Light>() == 84);
+const _: () = assert!(size_of::<Light>() == 88);
 
 /// `Plane` in `types.h`.
 #[repr(C)]
@@ -381,7 +384,7 @@ pub const LAYOUT: &[StructLayout] = &[
         kind => "kind", index => "index", triangle => "triangle", material => "material",
         corner => "corner", edge1 => "edge1", edge2 => "edge2", normal => "normal",
         radius => "radius", area => "area", prob => "prob", cdf => "cdf",
-        cap_height => "cap_height",
+        cap_height => "cap_height", solid_angle => "solid_angle",
     }),
     layout!(RevSurface, "RevSurface", {
         first_point => "first_point", num_segments => "num_segments", degree => "degree",

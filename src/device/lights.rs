@@ -75,6 +75,16 @@
 //! paths, of negligible measure, can reach what clipping leaves out. When no closed room holds
 //! the camera, nothing is clipped.
 //!
+//! # Walls that emit: sampled by solid angle
+//!
+//! An emitting wall of the closed room (a lit ceiling, as in the original's rooms) is marked
+//! `solid_angle`: nee.h samples it uniformly in the solid angle it subtends (Ureña, Fajardo
+//! and King 2013) rather than by area, since shading points come right up to it, where
+//! r² / cos varies most across it (ceiling_room's relMSE at equal samples about halves). A
+//! wall is untransformed, so its clipped light is a rectangle, as the mapping needs. Other
+//! rectangles (a panel hung in the room, lights of scenes without a closed room) keep area
+//! sampling, which costs less: nee.h says why.
+//!
 //! # Sphere lights sunk into walls: the visible cap
 //!
 //! smallpt's light is a sphere of radius 600 sunk all but 0.27 into the ceiling: sampled by the
@@ -211,6 +221,8 @@ pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
             edge2: f32x3(e2),
             normal: f32x3(normal),
             area: area as f32,
+            // A wall is untransformed: its edges lie along two axes, a rectangle.
+            solid_angle: u32::from(room.is_some_and(|room| room.walls.contains(&(i as u32)))),
             ..Light::default()
         };
         push(light, PI * le * area);
