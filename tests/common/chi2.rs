@@ -35,8 +35,8 @@ pub const SIGNIFICANCE: f64 = 0.01;
 /// The chi-square tests of the suite, each run with level `SIGNIFICANCE / TESTS` (Bonferroni):
 /// tests/material.rs 8 (Lambertian, 4 normals × 2 sides) + 4 (bent shading normals);
 /// tests/chi2.rs 1 (the harness on an exact host sampler) + 7 (sphere lights) + 4 (sphere caps) +
-/// 9 (squares, parallelograms and triangles).
-pub const TESTS: usize = 33;
+/// 9 (squares, parallelograms and triangles) + 10 (a room's emitting wall by solid angle).
+pub const TESTS: usize = 43;
 
 /// Bins expected to hold fewer samples than this are pooled.
 pub const MIN_EXPECTED: f64 = 5.0;
