@@ -918,17 +918,14 @@ pub struct Round {
 }
 
 /// How many standard errors a candidate's image mean may fall below the reference's before
-/// its trial is taken to have missed rare paths. 4.5, some 2.5 to 3 of the spread measured:
-/// the trial's standard errors of image means read low. On case2 (PoCL, 96x72) the differences
-/// between candidates' means spread 1.55 times their estimated standard error (24 seeds, 72
-/// pairs), symmetrically about 0, where the images agree to 2e-5 at 8192 samples, and each
-/// candidate's mean spread 1.7 to 2.2 times its estimated standard error over 40 other seeds
-/// (why is not known: the per-pixel variances behind the error estimate read right); at
-/// 3, light sampling off was taken to have missed rare paths in 4 trials of 24 once light
-/// sampling's own estimate became precise (the walls by solid angle), and in 3 of them it picked a
-/// candidate 42% behind. A trial that did miss rare paths falls short by far more (pure path
-/// tracing of a small light).
-const MISSED_SIGMAS: f64 = 4.5;
+/// its trial is taken to have missed rare paths. The standard errors are those of the channels'
+/// sum (kernels/trial.cl, trial_pixel): summed channel by channel they had read 1.7 to 2.2
+/// times low on case2 (PoCL, 96x72, 40 seeds), and light sampling off was taken to have missed
+/// rare paths in 4 trials of 24 once light sampling's own estimate became precise (the walls
+/// by solid angle); now each candidate's mean spreads 0.97 to 1.24 times its standard error
+/// there. A trial that did miss rare paths falls short by far more (pure path tracing of a
+/// small light).
+const MISSED_SIGMAS: f64 = 3.0;
 
 /// Each film's weight in the relative variance's denominator ([`TrialSums::terms`]): the
 /// trusted candidates' films weighted by the precision of their image means (`totals`: each

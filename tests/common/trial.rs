@@ -39,7 +39,9 @@ impl HostRound {
             for (film, sum) in films.iter().zip(&mut sums) {
                 let (s, o) = (film.sum[p], film.sum_odd[p]);
                 let term = (0..3)
-                    .map(|c| stratified_variance(s[c], o[c], n) / denominator[c])
+                    .map(|c| {
+                        stratified_variance(f64::from(s[c]), f64::from(o[c]), n) / denominator[c]
+                    })
                     .sum::<f64>()
                     / 3.0;
                 sum.0 += term;
@@ -53,9 +55,9 @@ impl HostRound {
 /// n times the variance of the mean of n samples, from the sum of the n samples and of those
 /// of the odd groups of four: each half's mean has variance σ² / (n/2), so their difference
 /// squared has expectation 4σ² / n.
-pub fn stratified_variance(sum: f32, sum_odd: f32, n: f64) -> f64 {
+pub fn stratified_variance(sum: f64, sum_odd: f64, n: f64) -> f64 {
     let half = n / 2.0;
-    let difference = (f64::from(sum) - 2.0 * f64::from(sum_odd)) / half;
+    let difference = (sum - 2.0 * sum_odd) / half;
     difference * difference * n / 4.0
 }
 
@@ -68,10 +70,10 @@ impl TrialSums for HostRound {
             .map(|film| {
                 let (mut mean, mut var) = (0.0, 0.0);
                 for (s, o) in film.sum.iter().zip(&film.sum_odd) {
-                    for c in 0..3 {
-                        mean += f64::from(s[c]) / n;
-                        var += stratified_variance(s[c], o[c], n) / n;
-                    }
+                    // The channels' sum and its own variance (kernels/trial.cl, trial_pixel).
+                    let total = |p: &[f32; 4]| p[..3].iter().map(|&c| f64::from(c)).sum::<f64>();
+                    mean += total(s) / n;
+                    var += stratified_variance(total(s), total(o), n) / n;
                 }
                 (mean, var)
             })
