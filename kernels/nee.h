@@ -13,12 +13,12 @@
  *
  * Each emitter kind has a trio, as each material has in material.h (pbrt-v4's Light interface:
  * SampleLi, PDF_Li, L): light_sample (a sphere by the cone it subtends, uniformly in solid
- * angle; a rectangle, a plane's square or what clipping leaves of it, uniformly in the solid
- * angle it subtends where that is between SPH_RECT_MIN and SPH_RECT_MAX; other parallelograms,
- * rectangles outside those bounds and triangles uniformly over their area), light_pdf (its
- * solid-angle density, which light_sample returns and BSDF-sampled hits are weighed with) and
- * light_emitted (constant). sample_light joins them to material.h's
- * trio, bsdf_eval and bsdf_pdf, and assumes nothing of the surface; tests/chi2.rs checks each
+ * angle; an emitting wall of the closed room, marked by the host, uniformly in the solid angle
+ * it subtends where that is between SPH_RECT_MIN and SPH_RECT_MAX; other squares, what
+ * clipping leaves of them, walls outside those bounds and triangles uniformly over their area),
+ * light_pdf (its solid-angle density, which light_sample returns and BSDF-sampled hits are
+ * weighed with) and light_emitted (constant). sample_light joins them to material.h's trio,
+ * bsdf_eval and bsdf_pdf, and assumes nothing of the surface; tests/chi2.rs checks each
  * light_sample against light_pdf with the chi-square harness of tests/common/chi2.rs.
  */
 #ifndef CLPT_NEE_H
