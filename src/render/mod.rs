@@ -840,17 +840,25 @@ impl<'d> Renderer<'d> {
             step,
             ..Rows::band(0, 0)
         };
-        let seconds = self.render_rows(rows, self.options.first_sample, 1)?.wall;
+        let seconds = self
+            .render_rows(rows, self.options.first_sample, 1, GROUP as u32 * 2)?
+            .wall;
         self.clear_film()?;
         Ok(f64::from(rows.count) / f64::from(height) / seconds)
     }
 
     /// Renders `rows` x samples [sample_start, +count) in launches of about the launch target
-    /// (a probe, then sized from its rate): returns the seconds spent in launches, wall and
-    /// CPU ([`clock::Spent`]).
-    fn render_rows(&self, rows: Rows, sample_start: u32, count: u32) -> Result<clock::Spent> {
+    /// (the first of at most `first` rows, the rest sized from its rate): returns the seconds
+    /// spent in launches, wall and CPU ([`clock::Spent`]).
+    fn render_rows(
+        &self,
+        rows: Rows,
+        sample_start: u32,
+        count: u32,
+        first: u32,
+    ) -> Result<clock::Spent> {
         let target = self.options.launch_target.as_secs_f64().max(1e-3);
-        let mut per_launch = rows.count.min(GROUP as u32 * 2);
+        let mut per_launch = rows.count.min(first).max(1);
         let (mut done, mut spent) = (0u32, clock::Spent::default());
         while done < rows.count {
             let n = per_launch.min(rows.count - done);
@@ -887,19 +895,19 @@ impl<'d> Renderer<'d> {
         let (width, height) = (self.width(), self.height());
         let all: Vec<usize> = (0..self.candidates.len()).collect();
         let kind = self.device.description.kind.clone();
-        let min_paths = strategy::min_scout_paths(&kind);
+        let scouting = strategy::scouting(&kind);
         // A render limited by time alone learns its samples from the first round's timings.
         let time_only = self
             .options
             .time_limit
             .filter(|_| self.options.spp.is_none());
         let first = if time_only.is_some() {
-            strategy::time_limited_scout_plan((width, height), min_paths)
+            strategy::time_limited_scout_plan((width, height), scouting)
         } else {
             // A short render's trial is one round, as large as it affords; a longer one
             // scouts.
             let scout =
-                strategy::scout_plan(all.len(), self.options.spp, (width, height), min_paths);
+                strategy::scout_plan(all.len(), self.options.spp, (width, height), scouting);
             let first = strategy::trial_plan(all.len(), self.options.spp, height);
             if first.cost() > scout.cost() {
                 scout
@@ -911,7 +919,7 @@ impl<'d> Renderer<'d> {
         let least = strategy::least_trial_samples(&kind);
         let first = strategy::with_least_samples(first, least, (width, height));
         let render_samples = self.image_samples.or(self.options.spp);
-        let (scouted, _) = self.trial_round(&all, first, render_samples, &start)?;
+        let (scouted, _) = self.trial_round(&all, first, render_samples, None, &start)?;
         let survivors = scouted.survivors();
         let spp = self.options.spp.or_else(|| {
             let best = &scouted.measured[scouted.chosen];
@@ -932,7 +940,17 @@ impl<'d> Renderer<'d> {
             Some(plan) => {
                 self.clear_film()?;
                 let render_samples = self.image_samples.or(spp);
-                let (round, parts) = self.trial_round(&survivors, plan, render_samples, &start)?;
+                // On a GPU a full round narrower than the scouts times its candidates by the
+                // scouts' seconds a path.
+                let timing =
+                    strategy::times_by_scouts(&kind, first, plan, (width, height)).then(|| {
+                        survivors
+                            .iter()
+                            .map(|&i| scouted.measured[i].seconds_per_sample)
+                            .collect()
+                    });
+                let (round, parts) =
+                    self.trial_round(&survivors, plan, render_samples, timing, &start)?;
                 let mut choice = Choice::merge(&scouted, &survivors, round);
                 // The last film rendered is still there: the winner's when it rendered last
                 // (survivors() puts the scouts' best last) on every row, in one part. The
@@ -960,12 +978,15 @@ impl<'d> Renderer<'d> {
     /// candidate's sums (render/trial.rs) before the film is cleared for the next; where the
     /// round extrapolates to the render's samples, `render_samples` where known
     /// ([`strategy::early_samples`]), kept after its first samples too. The film is left
-    /// holding the last render: with one part, the last candidate's whole round.
+    /// holding the last render: with one part, the last candidate's whole round. With
+    /// `timing` (seconds a path, one per candidate of `which`) the candidates are compared by
+    /// those instead of this round's launches.
     fn trial_round(
         &mut self,
         which: &[usize],
         plan: strategy::TrialPlan,
         render_samples: Option<u32>,
+        timing: Option<Vec<f64>>,
         start: &Instant,
     ) -> Result<(Choice, usize)> {
         let (width, height) = (self.width(), self.height());
@@ -989,6 +1010,7 @@ impl<'d> Renderer<'d> {
             .expect("trial kernels wherever there are several candidates");
         let round = (|| {
             let mut kept = kernels.round(rows, strategies.len(), plan.samples, early)?;
+            let launch = strategy::first_trial_launch(&self.device.description.kind, rows.count);
             let first = self.options.first_sample;
             let mut timed = vec![Vec::new(); strategies.len()];
             // A round on part of the image clears its own pixels as it keeps them; one on
@@ -1005,12 +1027,12 @@ impl<'d> Renderer<'d> {
                     let mut seconds = clock::Spent::default();
                     let mut done = from;
                     if let Some(n) = early.filter(|&n| from < n && n <= to) {
-                        seconds += self.render_rows(rows, first + done, n - done)?;
+                        seconds += self.render_rows(rows, first + done, n - done, launch)?;
                         kept.keep_early(k)?;
                         done = n;
                     }
                     if done < to {
-                        seconds += self.render_rows(rows, first + done, to - done)?;
+                        seconds += self.render_rows(rows, first + done, to - done, launch)?;
                     }
                     timed[k].push((seconds, to - from));
                     // The trial's few samples (at most 64) need no compensation: `sum` alone
@@ -1021,9 +1043,16 @@ impl<'d> Renderer<'d> {
             // A CPU's candidates compared by their work, which its launches' wall time blurs.
             let cpu_device = self.device.description.kind == "CPU";
             let timed = clock::comparable(&timed, cpu_device);
+            let seconds = match timing {
+                Some(per_path) => {
+                    let paths = f64::from(plan.samples) * kept.pixels() as f64;
+                    per_path.iter().map(|s| s * paths).collect()
+                }
+                None => strategy::robust_seconds(&timed, plan.samples),
+            };
             let round = strategy::Round {
                 strategies: strategies.clone(),
-                seconds: strategy::robust_seconds(&timed, plan.samples),
+                seconds,
                 samples: plan.samples,
                 render_samples,
                 pixels: kept.pixels(),

@@ -18,18 +18,21 @@
 //! - A short render's trial is one round ([`trial_plan`]: [`TRIAL_SHARE`] of its samples,
 //!   on rows thinned out as far as that needs).
 //! - A longer one scouts first ([`scout_plan`]: [`TRIAL_SPP`] samples on every fourth row's
-//!   worth, within [`SCOUT_SHARE`] of its samples) and drops the candidates that are clearly
-//!   worse ([`Choice::survivors`]); only the rest render the full round ([`full_round_plan`]),
-//!   sized to [`FULL_ROUND_SHARE`] of the render's time at the best one's speed. Light sampling
-//!   can double a path's price, and a trial of fixed samples per candidate then cost 6-12% of a
-//!   render on the H200; this one 1-2% of the showcases'.
+//!   worth, on a GPU on about [`GPU_SCOUT_PIXELS`] in one launch ([`scouting`]), within
+//!   [`SCOUT_SHARE`] of its samples) and drops the candidates that are clearly worse
+//!   ([`Choice::survivors`]); only the rest render the full round ([`full_round_plan`]), sized
+//!   to [`FULL_ROUND_SHARE`] of the render's time at the best one's speed, and on a GPU timed
+//!   by the scouts where it is narrower ([`times_by_scouts`]). Light sampling can double a
+//!   path's price, and a trial of fixed samples per candidate then cost 6-12% of a render on
+//!   the H200; this one 1-2% of the showcases'.
 //! - A render limited by time alone knows its samples only once a round has timed the
 //!   candidates: it scouts at the device's floor of paths ([`time_limited_scout_plan`]) and
 //!   sizes the full round, and the extrapolation, by the samples its time left affords at the
 //!   best one's speed ([`samples_within`]).
 //! - Each round spends its budget on more samples rather than on more than about
-//!   [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]): more pixels add little precision and keep a
-//!   GPU no busier.
+//!   [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]): more pixels add little precision. A GPU's
+//!   scouts are the exception: a GPU keeps a work-item a pixel, and a lean program idles in a
+//!   narrow launch, its seconds a path read high.
 //! - The statistics ([`choose`] over [`TrialSums`]) are computed on the device
 //!   (render/trial.rs): a read-back of the trial's rows and a host pass over them had cost a
 //!   fast scene more than its candidates' renders.
@@ -104,7 +107,10 @@ const MIN_SCOUT_PATHS_CPU: f64 = (1 << 13) as f64;
 /// A full round runs only where it measures each survivor on at least this many times the
 /// scouting round's samples ([`full_round_plan`]): one barely larger repeats the scouts' noise
 /// (its standard errors 10% smaller for 1.2 times the paths) at the price of every survivor's
-/// launches again.
+/// launches again. Or where it extrapolates to the render's samples and the scouts did not:
+/// a GPU's scouts of [`TRIAL_SPP`] samples on 2^19 pixels (meshes, 1280x720: 4 samples'
+/// worth each, against a full round's 6) read light sampling off's relative variance 1.34
+/// times its render's and on's 1.15 times, and chose on, 8% behind.
 const FULL_ROUND_GAIN: f64 = 2.0;
 
 /// A trial round of at least this many times [`TRIAL_SPP`] samples a pixel also measures each
@@ -415,15 +421,66 @@ pub fn sample_parts(samples: u32, early: Option<u32>, parts: u32) -> Vec<(u32, u
     }
 }
 
-/// The least paths a candidate traces in the scouting round on a device of `kind` (an OpenCL
-/// device type as `clpt devices` lists it: "CPU", "GPU", ...).
-pub fn min_scout_paths(kind: &str) -> f64 {
+/// How a device of `kind` (an OpenCL device type as `clpt devices` lists it: "CPU", "GPU",
+/// ...) scouts: the least paths a candidate traces ([`MIN_SCOUT_PATHS_CPU`],
+/// [`MIN_SCOUT_PATHS`]) and, on a GPU, the pixels its scouts fill ([`GPU_SCOUT_PIXELS`]).
+pub fn scouting(kind: &str) -> Scouting {
     if kind == "CPU" {
-        MIN_SCOUT_PATHS_CPU
+        Scouting {
+            min_paths: MIN_SCOUT_PATHS_CPU,
+            fill: None,
+        }
     } else {
-        MIN_SCOUT_PATHS
+        Scouting {
+            min_paths: MIN_SCOUT_PATHS,
+            fill: Some(GPU_SCOUT_PIXELS),
+        }
     }
 }
+
+/// Whether a device of `kind` compares a full round's candidates (`full`, after scouts of
+/// plan `scouts`, on an image of `size`) by the scouts' seconds a path rather than by its own
+/// launches: on a GPU, where the full round takes fewer pixels ([`full_round_least_pixels`]:
+/// 2^16 at the least, for the samples that extrapolate), and a lean program then idles in
+/// its launches ([`GPU_SCOUT_PIXELS`]). The variances stay the full round's.
+pub fn times_by_scouts(kind: &str, scouts: TrialPlan, full: TrialPlan, size: (u32, u32)) -> bool {
+    kind != "CPU" && full.pixels(size) < scouts.pixels(size)
+}
+
+/// The rows of a trial round's first launch on a device of `kind`, of `rows` in all: on a GPU
+/// all of them (the round's pixels at once: a narrower launch leaves a lean program's
+/// work-items too few, [`GPU_SCOUT_PIXELS`]); on a CPU two work-groups' rows, the rest sized
+/// by their rate.
+pub fn first_trial_launch(kind: &str, rows: u32) -> u32 {
+    if kind == "CPU" {
+        super::GROUP as u32 * 2
+    } else {
+        rows
+    }
+}
+
+/// The shape of a device's scouting round ([`scouting`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scouting {
+    /// The least paths a candidate traces.
+    pub min_paths: f64,
+    /// Where set (a GPU), the widest scouting round takes [`TRIAL_SPP`] samples on about this
+    /// many pixels (every row of a smaller image), as far as its share of the render affords;
+    /// else (a CPU) on every fourth row, on about [`TRIAL_PIXELS`] at most.
+    pub fill: Option<u64>,
+}
+
+/// The pixels a GPU's scouting round fills at the most ([`Scouting::fill`]). A GPU keeps one
+/// work-item a pixel, and a lean program keeps more of them resident than a heavy one: it is
+/// the one that idles in a narrow launch, and its seconds a path read high. H200, meshes with
+/// light sampling off (roulette below 0.3) at 0.0033 us a path over 921,600 pixels, 0.0040
+/// over 230,400 and 0.0100 over 57,600; with it on 0.0114, 0.0110 and 0.0134 (BENCHMARKS.md).
+/// Scouts of 8 samples on every fourth row (two launches, 163,840 and 66,560 pixels) read
+/// light sampling off at 1.41 times its render's seconds a path and on at 1.05, and dropped
+/// the best setting; the full round's 2^16 pixels read it 1.19 to 1.47 times on meshes,
+/// textures and the goblet. 2^19 pixels fill the H200's 132 units at 2048 work-items each
+/// about twice.
+const GPU_SCOUT_PIXELS: u64 = 1 << 19;
 
 /// The row sampling of the shortest trials, and of the scouting round: every fourth row.
 const MIN_ROW_STEP: u32 = 4;
@@ -627,7 +684,11 @@ pub fn full_round_plan(
     let budget = FULL_ROUND_SHARE * f64::from(spp) * chosen.seconds_per_sample / total;
     let plan = plan_on_rows(budget, row_step_for(width, height, TRIAL_PIXELS), height);
     let plan = with_least_samples_on(plan, LEAST_FULL_ROUND_SPP, (width, height), least_pixels);
-    let gain = plan.cost() >= FULL_ROUND_GAIN * scouted.cost();
+    // A round that extrapolates where the scouts did not (a GPU's, of TRIAL_SPP samples)
+    // measures what they could not, whatever its cost against theirs.
+    let extrapolates = |p: TrialPlan| early_samples(p.samples, Some(spp)).is_some();
+    let new_figures = extrapolates(plan) && !extrapolates(scouted);
+    let gain = plan.cost() >= FULL_ROUND_GAIN * scouted.cost() || new_figures;
     (survivors.len() > 1 && budget.is_finite() && gain).then_some(plan)
 }
 
@@ -672,13 +733,13 @@ pub fn scout_plan(
     candidates: usize,
     spp: Option<u32>,
     (width, height): (u32, u32),
-    min_paths: f64,
+    scouting: Scouting,
 ) -> TrialPlan {
     // No sample count: the widest round (scout_on's ceiling).
     let budget = spp.map_or(f64::INFINITY, |n| {
         SCOUT_SHARE * f64::from(n) / candidates.max(1) as f64
     });
-    scout_on(budget, (width, height), min_paths)
+    scout_on(budget, (width, height), scouting)
 }
 
 /// The first round of a render limited by time alone (`--time` without `--spp`): the
@@ -686,18 +747,26 @@ pub fn scout_plan(
 /// what its trial affords, are known only once a round has timed the candidates
 /// ([`samples_within`]); the widest scouting round, which such a render had before, took a
 /// 1280x720 render on PoCL (2 cores) 14 s of a 5-second limit.
-pub fn time_limited_scout_plan((width, height): (u32, u32), min_paths: f64) -> TrialPlan {
-    scout_on(0.0, (width, height), min_paths)
+pub fn time_limited_scout_plan((width, height): (u32, u32), scouting: Scouting) -> TrialPlan {
+    scout_on(0.0, (width, height), scouting)
 }
 
-/// A scouting round of `budget` full-image samples per pixel a candidate, at least `min_paths`
-/// paths and at most [`TRIAL_SPP`] samples on every fourth row's worth, on about
-/// [`TRIAL_PIXELS`] pixels at most.
-fn scout_on(budget: f64, (width, height): (u32, u32), min_paths: f64) -> TrialPlan {
-    let widest = f64::from(TRIAL_SPP) / f64::from(MIN_ROW_STEP);
+/// A scouting round of `budget` full-image samples per pixel a candidate, at least
+/// `scouting.min_paths` paths and at most [`TRIAL_SPP`] samples on every fourth row's worth,
+/// on about [`TRIAL_PIXELS`] pixels at most; on a GPU at most TRIAL_SPP samples on about its
+/// `fill` pixels.
+fn scout_on(budget: f64, (width, height): (u32, u32), scouting: Scouting) -> TrialPlan {
+    let (widest_step, step) = match scouting.fill {
+        Some(fill) => {
+            let step = row_step_for(width, height, fill).max(1);
+            (step, step)
+        }
+        None => (MIN_ROW_STEP, row_step_for(width, height, TRIAL_PIXELS)),
+    };
+    let widest = f64::from(TRIAL_SPP) / f64::from(widest_step);
     let pixels = f64::from(width) * f64::from(height);
-    let budget = budget.max(min_paths / pixels.max(1.0)).min(widest);
-    plan_on_rows(budget, row_step_for(width, height, TRIAL_PIXELS), height)
+    let budget = budget.max(scouting.min_paths / pixels.max(1.0)).min(widest);
+    plan_on_rows(budget, step, height)
 }
 
 /// The samples per pixel a render of `pixels` pixels reaches in `seconds` at
@@ -1183,7 +1252,7 @@ mod tests {
         // The full round: 0.75% of a 4000-sample render at the best's speed, shared by three
         // candidates of equal speed: 10 samples' worth each; on every 2nd row of 640x480 (2^18
         // pixels at most), 16 samples.
-        let scouted = scout_plan(4, Some(4000), (640, 480), MIN_SCOUT_PATHS);
+        let scouted = scout_plan(4, Some(4000), (640, 480), scouting("CPU"));
         assert_eq!((scouted.row_step, scouted.samples), (4, 8));
         // 16 samples on every 2nd row of 640x480 (2^18 pixels at most) become the samples
         // that extrapolate (32) on every 4th column of those rows, at the same cost.
@@ -1205,19 +1274,25 @@ mod tests {
         // A longer render's round has those samples already, on rows alone.
         let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 40_000, (640, 480), 0).unwrap();
         assert_eq!((plan.col_step, plan.samples), (1, 64));
-        // A shorter render affords no more than the scouting round: no full round.
+        // A shorter render affords no more than the scouting round: no full round, unless it
+        // extrapolates where the scouts (8 samples) did not.
+        let extrapolating = plan_of(4, 4, 32);
+        assert_eq!(extrapolating.cost(), scouted.cost());
         assert_eq!(
-            full_round_plan(&scout, scouted, &[1, 3, 2], 600, (640, 480), 0),
+            full_round_plan(&scout, extrapolating, &[1, 3, 2], 600, (640, 480), 0),
             None
         );
+        let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 600, (640, 480), 0).unwrap();
+        assert_eq!(plan.samples, 32);
         assert_eq!(
             full_round_plan(&scout, scouted, &[2], 4000, (640, 480), 0),
             None
         );
         // Nor one that would take less than twice the scouts' samples: at 1200 samples 3
-        // samples' worth each, 8 samples on every third row (2.7 against the scouts' 2).
+        // samples' worth each, 8 samples on every third row (2.7 against the scouts' 2),
+        // where both extrapolate.
         assert_eq!(
-            full_round_plan(&scout, scouted, &[1, 3, 2], 1200, (640, 480), 0),
+            full_round_plan(&scout, extrapolating, &[1, 3, 2], 1200, (640, 480), 0),
             None
         );
         // Merged: the full round's figures for the survivors, the scouts' for the dropped.
@@ -1293,7 +1368,7 @@ mod tests {
         );
         // A 1280x720 round at a CPU's floor (2^13 paths: 8 samples on one row), which kept the
         // middle row alone: 8 rows of 40 columns.
-        let floor = time_limited_scout_plan((1280, 720), min_scout_paths("CPU"));
+        let floor = time_limited_scout_plan((1280, 720), scouting("CPU"));
         assert_eq!(floor, plan(720, 1, 8));
         let spread = with_least_samples(floor, 32, (1280, 720));
         assert_eq!(spread, plan(90, 32, 32));
@@ -1408,33 +1483,58 @@ mod tests {
 
     #[test]
     fn scouting_takes_a_share_of_short_renders_but_enough_paths() {
-        let plan = |spp, width, height| {
-            let p = scout_plan(4, spp, (width, height), MIN_SCOUT_PATHS);
+        let on = |kind, spp, width, height| {
+            let p = scout_plan(4, spp, (width, height), scouting(kind));
             (p.row_step, p.samples)
         };
+        let (gpu, cpu) = (|s, w, h| on("GPU", s, w, h), |s, w, h| on("CPU", s, w, h));
         // 256 samples, four candidates: 1% is 0.64 samples' worth each: 8 samples on every
         // 13th row.
-        assert_eq!(plan(Some(256), 1920, 1080), (13, 8));
-        // ...but never fewer than 2^20 paths a candidate: at 64 samples, 0.51 samples' worth
-        // (every 16th row), not 0.16.
-        assert_eq!(plan(Some(64), 1920, 1080), (16, 8));
-        assert_eq!(plan(Some(16), 4000, 4000), (123, 8));
-        // A long render: 8 samples on every fourth row's worth, on 2^18 pixels where the
-        // image has more: 24 samples on every 15th row of 2560x1440.
-        assert_eq!(plan(Some(100_000), 2560, 1440), (15, 24));
-        assert_eq!(plan(None, 2560, 1440), (15, 24));
-        assert_eq!(plan(Some(100_000), 1024, 768), (4, 8));
-        assert_eq!(plan(Some(100_000), 320, 240), (4, 8));
+        assert_eq!(gpu(Some(256), 1920, 1080), (13, 8));
+        // ...but never fewer than 2^20 paths a candidate on a GPU: at 64 samples, 0.51
+        // samples' worth (every 16th row), not 0.16.
+        assert_eq!(gpu(Some(64), 1920, 1080), (16, 8));
+        assert_eq!(gpu(Some(16), 4000, 4000), (123, 8));
+        // A long render on a CPU: 8 samples on every fourth row's worth, on 2^18 pixels where
+        // the image has more: 24 samples on every 15th row of 2560x1440.
+        assert_eq!(cpu(Some(100_000), 2560, 1440), (15, 24));
+        assert_eq!(cpu(None, 2560, 1440), (15, 24));
+        assert_eq!(cpu(Some(100_000), 1024, 768), (4, 8));
+        assert_eq!(cpu(Some(100_000), 320, 240), (4, 8));
+        // A GPU's: 8 samples on about 2^19 pixels, every row of a smaller image: every 8th
+        // row of 2560x1440, every 2nd of 1280x720 (meshes at 2048 samples: 5.12 samples'
+        // worth a candidate) and of 1024x768, every row of 320x240.
+        assert_eq!(gpu(Some(100_000), 2560, 1440), (8, 8));
+        assert_eq!(gpu(None, 2560, 1440), (8, 8));
+        assert_eq!(gpu(Some(2048), 1280, 720), (2, 8));
+        assert_eq!(gpu(Some(100_000), 1024, 768), (2, 8));
+        assert_eq!(gpu(Some(100_000), 320, 240), (1, 8));
         // A CPU's floor is 2^13 paths: 1% of 256 samples at 160x120 (every 13th row, where a
-        // GPU's floor takes every 4th), 0.57 samples' worth at 64 on 160x90, not 0.16.
-        let cpu = |spp, width, height| {
-            let p = scout_plan(4, spp, (width, height), min_scout_paths("CPU"));
-            (p.row_step, p.samples)
-        };
-        assert_eq!(plan(Some(256), 160, 120), (4, 8));
+        // GPU's floor takes every row), 0.57 samples' worth at 64 on 160x90, not 0.16.
+        assert_eq!(gpu(Some(256), 160, 120), (1, 8));
         assert_eq!(cpu(Some(256), 160, 120), (13, 8));
         assert_eq!(cpu(Some(64), 160, 90), (15, 8));
-        assert_eq!(min_scout_paths("GPU"), MIN_SCOUT_PATHS);
+        assert_eq!(scouting("GPU").min_paths, MIN_SCOUT_PATHS);
+        assert_eq!(scouting("CPU").min_paths, MIN_SCOUT_PATHS_CPU);
+        // A GPU launches a round's rows at once, a CPU two work-groups' first.
+        assert_eq!(first_trial_launch("GPU", 360), 360);
+        assert_eq!(first_trial_launch("CPU", 360), 16);
+    }
+
+    #[test]
+    fn a_gpu_times_a_narrower_full_round_by_its_scouts() {
+        // meshes at 1280x720: scouts on every 2nd row (460,800 pixels), a full round of 32
+        // samples on 2^16 of them or more.
+        let size = (1280, 720);
+        let scouts = plan_of(2, 1, 8);
+        let full =
+            with_least_samples_on(plan_of(2, 1, 8), 32, size, full_round_least_pixels("GPU"));
+        assert!(full.pixels(size) < scouts.pixels(size), "{full:?}");
+        assert!(times_by_scouts("GPU", scouts, full, size));
+        assert!(!times_by_scouts("CPU", scouts, full, size));
+        // Every pixel of 320x240 in both (ceiling_room): the full round's own timings.
+        let all = plan_of(1, 1, 32);
+        assert!(!times_by_scouts("GPU", plan_of(1, 1, 8), all, (320, 240)));
     }
 
     #[test]
@@ -1451,14 +1551,14 @@ mod tests {
         // GPU's 2^20 become every 8th row of 720, 0.88 of it), where the widest scouting round
         // (8 samples on every 4th row) had cost a CPU 2^21 paths a candidate at 1280x720.
         for (kind, paths) in [("CPU", 1 << 13), ("GPU", 1 << 20)] {
-            let plan = time_limited_scout_plan((1280, 720), min_scout_paths(kind));
+            let plan = time_limited_scout_plan((1280, 720), scouting(kind));
             let traced = plan.cost() * 1280.0 * 720.0;
             assert!(
                 traced >= 0.75 * f64::from(paths) && traced < 1.5 * f64::from(paths),
                 "{plan:?}"
             );
         }
-        let widest = scout_plan(4, None, (1280, 720), MIN_SCOUT_PATHS_CPU);
+        let widest = scout_plan(4, None, (1280, 720), scouting("CPU"));
         assert_eq!(widest.cost() * 1280.0 * 720.0, 1280.0 * 180.0 * 8.0);
     }
 }
