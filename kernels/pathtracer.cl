@@ -10,10 +10,10 @@
  * film to the error figures of the per-pass report.
  *
  * Why this shape: one work-item per pixel and a loop over samples, so the host can size each
- * launch (rows x samples) to about 100 ms and never trip a display watchdog. Paths are
- * iterative (the original unrolled recursion with templates and stopped at depth 8): Russian
- * roulette ends them without bias; `max_depth` is only a safety cap, far past where roulette has
- * ended every path that matters. No sample is clamped. A vertex scatters through its material's
+ * launch (rows x samples) to a target (render/mod.rs, default_launch_target) and never trip a
+ * display watchdog. Paths are iterative (the original unrolled recursion with templates and
+ * stopped at depth 8): Russian roulette ends them without bias; `max_depth` is only a safety
+ * cap, far past where roulette has ended every path that matters. No sample is clamped. A vertex scatters through its material's
  * trio (material.h: bsdf_sample here, bsdf_eval and bsdf_pdf in light sampling) and samples a
  * light through the emitter's (nee.h), so neither assumes what the other is.
  */

@@ -3,10 +3,8 @@
  * Reads: the film's `sum` and `sum_odd` on a round's trial rows, after each candidate rendered
  * them or a part of its samples on them (trial_keep), then every candidate's kept rows at once.
  * Writes: per candidate its rows' sums into `kept` (trial_keep), and per chunk of TRIAL_CHUNK
- * kept pixels and candidate two sums (trial_totals, trial_terms), which the host adds up in f64, chunk by chunk in order. A round
- * that extrapolates (render/strategy.rs, `extrapolate`) also keeps each candidate's rows after
- * its first samples, in slots `films` on: trial_terms reads those with `base` = films, over
- * the same denominator (the final films').
+ * kept pixels and candidate two sums (trial_totals, trial_terms), which the host adds up in
+ * f64, chunk by chunk in order.
  *
  * Why on the device: a trial read back to the host cost a fast scene 2 to 3 ms a candidate
  * (its rows, 4 MiB of sums, and the host's pass over them) where the candidate rendered in 1
@@ -77,18 +75,17 @@ static float2 trial_group_sum(float2 v, __local float2* scratch) {
 }
 
 /* Candidate k's two figures at kept pixel p (of `pixels` a candidate, `films` candidates; its
- * film of n samples a pixel in slot base + k): for trial_totals the pixel's mean summed over
+ * film of n samples a pixel in slot k): for trial_totals the pixel's mean summed over
  * channels and that mean's variance (the stratified variance of the sum over n); for
  * trial_terms (`terms`) its relative variance of one sample, the channels' mean of the
- * stratified variance over the common denominator d^2 + eps (d the sums of slots 0 to
- * films - 1 weighted by `weights`: render/strategy.rs, `denominator_weights`), and that
+ * stratified variance over the common denominator d^2 + eps (d the films' sums weighted by
+ * `weights`: render/strategy.rs, `denominator_weights`), and that
  * squared. */
-static inline float2 trial_pixel(__global const float4* kept, uint pixels, uint films, uint base,
-                                 uint k, uint p, float n, bool terms,
-                                 __global const float* weights, float eps) {
-    const uint slot = base + k;
-    const float3 s = kept[2u * slot * pixels + p].xyz;
-    const float3 o = kept[(2u * slot + 1u) * pixels + p].xyz;
+static inline float2 trial_pixel(__global const float4* kept, uint pixels, uint films, uint k,
+                                 uint p, float n, bool terms, __global const float* weights,
+                                 float eps) {
+    const float3 s = kept[2u * k * pixels + p].xyz;
+    const float3 o = kept[(2u * k + 1u) * pixels + p].xyz;
     if (!terms) {
         /* The variance of the channels' sum from the sum's own halves: a path's channels move
          * together, so their variances do not add up to it (they read it 1.7 to 2.2 times low
@@ -107,8 +104,8 @@ static inline float2 trial_pixel(__global const float4* kept, uint pixels, uint 
 
 /* Per chunk of TRIAL_CHUNK kept pixels (this group's) and candidate k: out[chunk * films + k]
  * = the sums over the chunk's pixels of trial_pixel's two figures. */
-static void trial_reduce(__global const float4* kept, uint pixels, uint films, uint base,
-                         uint samples, bool terms, __global const float* weights, float eps,
+static void trial_reduce(__global const float4* kept, uint pixels, uint films, uint samples,
+                         bool terms, __global const float* weights, float eps,
                          __global float2* out, __local float2* scratch) {
     const uint chunk = get_group_id(0), l = get_local_id(0);
     const uint first = chunk * TRIAL_CHUNK;
@@ -117,7 +114,7 @@ static void trial_reduce(__global const float4* kept, uint pixels, uint films, u
     for (uint k = 0u; k < films; ++k) {
         float2 acc = (float2)(0.0f);
         for (uint p = first + l; p < end; p += TRIAL_GROUP)
-            acc += trial_pixel(kept, pixels, films, base, k, p, n, terms, weights, eps);
+            acc += trial_pixel(kept, pixels, films, k, p, n, terms, weights, eps);
         const float2 total = trial_group_sum(acc, scratch);
         if (l == 0u) out[chunk * films + k] = total;
     }
@@ -127,15 +124,15 @@ static void trial_reduce(__global const float4* kept, uint pixels, uint films, u
 __kernel __attribute__((reqd_work_group_size(TRIAL_GROUP, 1, 1))) void trial_totals(
     __global const float4* kept, uint pixels, uint films, uint samples, __global float2* out) {
     __local float2 scratch[TRIAL_GROUP];
-    trial_reduce(kept, pixels, films, 0u, samples, false, (__global const float*)0, 0.0f, out,
+    trial_reduce(kept, pixels, films, samples, false, (__global const float*)0, 0.0f, out,
                  scratch);
 }
 
 /* Each candidate's relative variances, chunk by chunk: (their sum, the sum of their squares),
- * of the films in slots base to base + films - 1, of `samples` samples a pixel. */
+ * of films of `samples` samples a pixel. */
 __kernel __attribute__((reqd_work_group_size(TRIAL_GROUP, 1, 1))) void trial_terms(
     __global const float4* kept, uint pixels, uint films, uint samples,
-    __global const float* weights, float eps, uint base, __global float2* out) {
+    __global const float* weights, float eps, __global float2* out) {
     __local float2 scratch[TRIAL_GROUP];
-    trial_reduce(kept, pixels, films, base, samples, true, weights, eps, out, scratch);
+    trial_reduce(kept, pixels, films, samples, true, weights, eps, out, scratch);
 }

@@ -197,7 +197,7 @@ fn same_seed_same_bits_however_split_other_seed_differs() {
     let scene = smallpt_at(24, 18);
     let a = render(&scene, options(8, 7));
     let tiny_launches = RenderOptions {
-        launch_target: Duration::from_nanos(1),
+        launch_target: Some(Duration::from_nanos(1)),
         ..options(8, 7)
     };
     let b = render(&scene, tiny_launches);

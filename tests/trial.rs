@@ -24,8 +24,7 @@ const RELATIVE: f64 = 1e-5;
 
 /// Renders nothing: puts each of the round's films (the pixels of `rows`, row by row) into a
 /// film of `width` x `height` whose other pixels are NaN, keeps it as a trial round's
-/// candidate on the device (its early film first, where the round has them), and hands the
-/// round to `f`.
+/// candidate on the device, and hands the round to `f`.
 fn on_device<T>(
     device: &Device,
     round: &HostRound,
@@ -36,12 +35,11 @@ fn on_device<T>(
     in_parts(device, round, size, rows, 1, f)
 }
 
-/// A round of `films` of `samples` samples a pixel, without early films.
+/// A round of `films` of `samples` samples a pixel.
 fn plain(films: &[HostFilm], samples: u32) -> HostRound {
     HostRound {
         films: films.to_vec(),
         samples,
-        early: None,
     }
 }
 
@@ -75,10 +73,7 @@ fn in_parts<T>(
         width,
     )
     .unwrap_or_else(|e| panic!("{e}"));
-    let early = host.early.as_ref().map(|(n, _)| *n);
-    let mut round = kernels
-        .round(rows, films.len(), host.samples, early)
-        .unwrap();
+    let mut round = kernels.round(rows, films.len(), host.samples).unwrap();
     let columns = rows.columns(width);
     assert_eq!(round.pixels(), (columns * rows.count) as usize);
     // Part `part` of a value (None: the whole): hi + lo == v exactly (lo is v - hi, exact in
@@ -106,14 +101,6 @@ fn in_parts<T>(
     };
     for part in 0..parts {
         for (k, film) in films.iter().enumerate() {
-            if let (0, Some((_, early))) = (part, &host.early) {
-                sum.write(&image(&early[k].sum, None)).enq().unwrap();
-                sum_odd
-                    .write(&image(&early[k].sum_odd, None))
-                    .enq()
-                    .unwrap();
-                round.keep_early(k).unwrap();
-            }
             sum.write(&image(&film.sum, Some(part))).enq().unwrap();
             sum_odd
                 .write(&image(&film.sum_odd, Some(part)))
@@ -127,7 +114,7 @@ fn in_parts<T>(
 
 /// A round on part of the image clears its pixels of the film's five sums as it keeps them
 /// (render/mod.rs, `trial_round`, clears no more than that between candidates), and no
-/// other pixel; keeping the early film clears nothing.
+/// other pixel.
 #[test]
 fn keeping_a_lattice_round_clears_its_pixels_and_no_other() {
     let device = common::device();
@@ -158,17 +145,12 @@ fn keeping_a_lattice_round_clears_its_pixels_and_no_other() {
         width,
     )
     .unwrap_or_else(|e| panic!("{e}"));
-    let mut round = kernels.round(rows, 1, 32, Some(8)).unwrap();
+    let mut round = kernels.round(rows, 1, 32).unwrap();
     let read = |b: &ocl::Buffer<f32>| {
         let mut v = vec![0.0f32; len];
         b.read(&mut v).enq().unwrap();
         v
     };
-    round.keep_early(0).unwrap();
-    assert!(
-        film.iter().all(|b| read(b) == values),
-        "the early keep cleared"
-    );
     round.keep(0, true).unwrap();
     let columns = rows.columns(width);
     let taken = |pixel: u32| {
@@ -278,35 +260,16 @@ fn device_sums_match_the_f64_formulas() {
         let weights: Vec<f64> = (0..films.len())
             .map(|k| (k as f64 + 0.5) / f64::from(samples))
             .collect();
-        // The films after their first 8 samples: random films of their own (the sums only
-        // need to be held to the formulas, over the final films' denominator).
-        let early: Vec<HostFilm> = (0..films.len())
-            .map(|_| random_film(&mut rng, pixels, TRIAL_SPP))
-            .collect();
-        let mut host = HostRound {
-            films: films.clone(),
-            samples,
-            early: Some((TRIAL_SPP, early)),
-        };
-        let sums = |d: &mut dyn TrialSums| {
-            (
-                d.totals().unwrap(),
-                d.terms(&weights).unwrap(),
-                d.early_terms(&weights).unwrap().unwrap(),
-            )
-        };
-        let (host_totals, host_terms, (n, host_early)) = sums(&mut host);
-        let (totals, terms, (device_n, early)) =
-            on_device(&device, &host, (width, height), rows, sums);
-        assert_eq!((n, device_n), (TRIAL_SPP, TRIAL_SPP));
+        let mut host = plain(&films, samples);
+        let sums = |d: &mut dyn TrialSums| (d.totals().unwrap(), d.terms(&weights).unwrap());
+        let (host_totals, host_terms) = sums(&mut host);
+        let (totals, terms) = on_device(&device, &host, (width, height), rows, sums);
         for k in 0..films.len() {
             for (what, device, host) in [
                 ("mean", totals[k].0, host_totals[k].0),
                 ("variance", totals[k].1, host_totals[k].1),
                 ("relative variance", terms[k].0, host_terms[k].0),
                 ("its square", terms[k].1, host_terms[k].1),
-                ("early relative variance", early[k].0, host_early[k].0),
-                ("its square", early[k].1, host_early[k].1),
             ] {
                 assert!(
                     close(device, host),
@@ -329,16 +292,11 @@ fn a_round_kept_in_parts_sums_as_one_kept_whole() {
         col_step: 2,
     };
     let films: Vec<HostFilm> = (0..2).map(|_| random_film(&mut rng, 330, 32)).collect();
-    let early: Vec<HostFilm> = (0..2).map(|_| random_film(&mut rng, 330, 8)).collect();
-    let round = HostRound {
-        early: Some((8, early)),
-        ..plain(&films, 32)
-    };
+    let round = plain(&films, 32);
     let sums = |parts| {
         in_parts(&device, &round, (66, 21), rows, parts, |d| {
             let weights = [0.05, 0.07];
-            let early = d.early_terms(&weights).unwrap();
-            (d.totals().unwrap(), d.terms(&weights).unwrap(), early)
+            (d.totals().unwrap(), d.terms(&weights).unwrap())
         })
     };
     let whole = sums(1);
@@ -388,19 +346,17 @@ fn film(pixels: usize, even: f32, odd: f32) -> HostFilm {
 /// `choose` over `films` (of one row, seconds each) with the host's sums and with the
 /// device's; the two choices agree, the host's is returned.
 fn choose_both(films: &[HostFilm], seconds: &[f64]) -> Choice {
-    choose_round(&plain(films, TRIAL_SPP), seconds, None)
+    choose_round(&plain(films, TRIAL_SPP), seconds)
 }
 
-/// [`choose_both`] for a round of its own (with early films where it has them), for a render
-/// of `render_samples`.
-fn choose_round(host: &HostRound, seconds: &[f64], render_samples: Option<u32>) -> Choice {
+/// [`choose_both`] for a round of its own samples a pixel.
+fn choose_round(host: &HostRound, seconds: &[f64]) -> Choice {
     let films = &host.films;
     let pixels = films[0].sum.len();
     let round = Round {
         strategies: (0..films.len()).map(|k| strategy(k % 2 == 0)).collect(),
         seconds: seconds.to_vec(),
         samples: host.samples,
-        render_samples,
         pixels,
     };
     let on_host = strategy::choose(&round, &mut host.clone(), pixels as f64, 1.0).unwrap();
@@ -469,37 +425,16 @@ fn of_variance(pixels: usize, n: u32, v: f64) -> HostFilm {
 }
 
 #[test]
-fn a_round_that_kept_its_first_samples_chooses_by_the_render_s_samples() {
-    // At 32 samples the second reads better (0.47 against 0.48), but from 8 samples the
-    // first's variance falls (0.60) and the second's rises (0.40): extrapolated to the
-    // render's 256 the first is ahead (strategy::extrapolate: 0.44 against 0.49).
+fn a_round_reads_each_candidate_at_its_own_samples() {
+    // At 32 samples the second reads better (0.47 against 0.48): its own figures, not carried
+    // to the render's samples, decide.
     let films = [of_variance(64, 32, 0.48), of_variance(64, 32, 0.47)];
-    let early = vec![of_variance(64, 8, 0.60), of_variance(64, 8, 0.40)];
-    let round = HostRound {
-        early: Some((TRIAL_SPP, early)),
-        ..plain(&films, 32)
-    };
-    let choice = choose_round(&round, &[1.0, 1.0], Some(256));
-    assert_eq!(choice.chosen, 0, "{choice:?}");
-    let m = &choice.measured;
-    let [(n1, v1), (n2, v2)] = m[0].extrapolated_from.unwrap();
-    assert_eq!((n1, n2), (8, 32));
+    let choice = choose_round(&plain(&films, 32), &[1.0, 1.0]);
+    assert_eq!(choice.chosen, 1, "{choice:?}");
     // Over the denominator 1 + ε.
     let over = |v: f64| v / (1.0 + f64::from(REL_EPSILON));
-    assert!(
-        (v1 - over(0.60)).abs() < 1e-6 && (v2 - over(0.48)).abs() < 1e-6,
-        "{m:?}"
-    );
-    let expected = strategy::extrapolate((8, v1, 0.0), (32, v2, 0.0), 256).0;
-    assert!((m[0].relative_variance - expected).abs() < 1e-12, "{m:?}");
-    assert!(m[0].relative_variance < m[1].relative_variance);
-    // The same round for a render of unknown samples (a time limit), or without its early
-    // films: the round's own figures, and the second.
-    let choice = choose_round(&round, &[1.0, 1.0], None);
-    assert_eq!(choice.chosen, 1);
-    assert!(choice.measured[0].extrapolated_from.is_none());
-    assert_eq!(
-        choose_round(&plain(&films, 32), &[1.0, 1.0], Some(256)).chosen,
-        1
-    );
+    for (m, v) in choice.measured.iter().zip([0.48, 0.47]) {
+        assert_eq!(m.samples, 32);
+        assert!((m.relative_variance - over(v)).abs() < 1e-6, "{m:?}");
+    }
 }

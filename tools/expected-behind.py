@@ -14,14 +14,12 @@ A choice's cost is then its setting's relMSE × seconds over the best one's, plu
 seconds over that setting's render seconds; the table gives its mean over the seeds, per scene.
 
   tools/expected-behind.py --clpt BIN [--clpt BIN ...] [--seeds 24] [--truth-seeds 3]
-      [--truth CSV] [--out DIR] [--exponents P,P,...] SCENE:SPP[:W:H] ...
+      [--truth CSV] [--out DIR] [--lines DIR] SCENE:SPP[:W:H] ...
 
-With --exponents P,P,... (numbers, or "none"), each trial's printed figures (`-v`: every
-candidate's relative variance at its two sample counts and its seconds a path) are also replayed
-through the variance model's extrapolation with those exponents in place of the one in use
-(src/render/strategy.rs, `extrapolate` and QUASI_RANDOM_EXPONENT; "none": the variance at the
-round's own samples), and a second table gives the cost behind the best each would have had:
-a change of the model measured on the same trials and truth, without a build.
+With --lines DIR, each trial's candidate lines (`-v`: every candidate's relative variance, its
+samples a pixel and its seconds a path) are kept in DIR/SCENE-SEED.txt (SCENE-BINARY-SEED.txt
+with several binaries), to replay a change of the choice's rule on the same trials and truth
+without a build.
 
 The first --clpt renders the fixed settings; --truth takes them instead from the "fixed" rows
 of an earlier run's CSV (same scenes, samples and sizes, same machine), to compare new trials
@@ -46,11 +44,6 @@ SETTINGS = [("on", "0.5"), ("on", "0.3"), ("off", "0.5"), ("off", "0.3")]
 CHOICE = re.compile(
     r"^estimator: light sampling (on|off), roulette below ([0-9.]+) \(chosen in a ([0-9.]+) s trial"
 )
-# A candidate's line of `-v` (src/render/strategy.rs, Choice::trial_lines).
-CANDIDATE = re.compile(
-    r"trial: light sampling (on|off), roulette below ([0-9.]+): relMSE x s \S+ \(relative "
-    r"variance (\S+) per sample(?: extrapolated from (\S+) at (\d+) samples and (\S+) at "
-    r"(\d+))?, (\S+) us per path\)(.*)")
 
 
 def render(clpt, scene, spp, size, seed, extra, tmp):
@@ -80,35 +73,6 @@ def choice(clpt, scene, spp, size, seed, tmp):
     sys.exit(f"{scene}: no trial in the output of {clpt}:\n{out.stderr}")
 
 
-def extrapolate(n1, v1, n2, v2, n, p):
-    """The relative variance at n samples through (n1, v1) and (n2, v2) along a + b n^-p, never
-    below the pure power law through the second: src/render/strategy.rs, `extrapolate`; p None
-    keeps v2."""
-    if p is None or n <= n2 or n2 <= n1:
-        return v2
-    g = lambda k: k ** -p
-    k = (g(n2) - g(n)) / (g(n1) - g(n2))
-    return max(v2 + k * (v2 - v1), v2 * g(n) / g(n2))
-
-
-def replay(lines, spp, p):
-    """The setting a trial's candidates' lines choose with exponent p (None: no extrapolation):
-    the least relMSE × s among those neither dropped nor taken to have missed rare paths."""
-    best = None
-    for line in lines:
-        m = CANDIDATE.search(line)
-        if not m or "dropped" in m.group(9) or "rare paths missed" in m.group(9):
-            continue
-        v = float(m.group(3))
-        if m.group(4):
-            v = extrapolate(int(m.group(5)), float(m.group(4)), int(m.group(7)),
-                            float(m.group(6)), int(spp), p)
-        cost = v * float(m.group(8))
-        if best is None or cost < best[0]:
-            best = (cost, (m.group(1), m.group(2)))
-    return best and best[1]
-
-
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--clpt", action="append", required=True)
@@ -116,7 +80,7 @@ def main():
     p.add_argument("--truth-seeds", type=int, default=3)
     p.add_argument("--truth", help="an earlier expected-behind.csv whose fixed rows to reuse")
     p.add_argument("--out", default=".")
-    p.add_argument("--exponents", help="replay the trials with these exponents: P,P,... or none")
+    p.add_argument("--lines", help="keep each trial's candidate lines in this folder")
     p.add_argument("scenes", nargs="+")
     a = p.parse_args()
     earlier = {}
@@ -129,9 +93,8 @@ def main():
     os.makedirs(a.out, exist_ok=True)
     tmp = tempfile.mkdtemp()
     rows = []
-    exponents = [None if e == "none" else float(e) for e in a.exponents.split(",")] \
-        if a.exponents else []
-    replays = {e: [] for e in exponents}
+    if a.lines:
+        os.makedirs(a.lines, exist_ok=True)
     for entry in a.scenes:
         file, spp, *wh = entry.split(":")
         size = ["--width", wh[0], "--height", wh[1]] if wh else []
@@ -161,11 +124,10 @@ def main():
                     sys.exit(f"{name}: {clpt} chose {setting}, which {a.truth} lacks")
                 seconds, product = truth[setting]
                 behind = product / best - 1 + trial / seconds
-                for e in exponents:
-                    again = replay(lines, spp, e)
-                    if again in truth:
-                        cost = truth[again][1] / best - 1 + trial / truth[again][0]
-                        replays[e].append((name, spp, cost))
+                if a.lines:
+                    tag = f"-{os.path.basename(clpt)}" if len(a.clpt) > 1 else ""
+                    with open(os.path.join(a.lines, f"{name}{tag}-{seed}.txt"), "w") as f:
+                        f.write("\n".join(lines) + "\n")
                 rows.append([name, spp, os.path.basename(clpt), ":".join(setting), seed,
                              trial, "", behind])
         print(f"{name}: done", file=sys.stderr)
@@ -176,25 +138,6 @@ def main():
                     "behind"])
         w.writerows(rows)
     table(rows, [os.path.basename(c) for c in a.clpt])
-    if exponents:
-        replay_table(replays)
-
-
-def replay_table(replays):
-    """One markdown row a scene: the mean cost behind the best of its trials replayed with each
-    exponent."""
-    names = list(dict.fromkeys((n, s) for v in replays.values() for n, s, _ in v))
-    label = lambda e: "not extrapolated" if e is None else f"p = {e:g}"
-    print("\n| scene, spp | " + " | ".join(label(e) for e in replays) + " |")
-    print("|---|" + "---|" * len(replays))
-    for name, spp in names + [("mean", None)]:
-        cells = []
-        for v in replays.values():
-            costs = [c for n, s, c in v if (n, s) == (name, spp)]
-            if name == "mean":
-                costs = [statistics.mean(c for n, s, c in v if (n, s) == k) for k in names]
-            cells.append(f"{100 * statistics.mean(costs):+.1f}%" if costs else "")
-        print(f"| {name}{'' if spp is None else f', {spp}'} | " + " | ".join(cells) + " |")
 
 
 def table(rows, binaries):

@@ -211,7 +211,6 @@ mod tests {
             relative_variance_se: 0.01,
             missed_rare_paths: false,
             samples: 8,
-            extrapolated_from: None,
             dropped: false,
         };
         let choice = crate::render::strategy::Choice {

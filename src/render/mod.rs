@@ -3,8 +3,9 @@
 //! read the film back.
 //!
 //! Each launch covers a band of rows and a run of sample indices, sized from the measured rate
-//! so that one launch takes about `launch_target` (100 ms by default): long enough to keep a GPU
-//! busy, short enough that a display GPU's watchdog never fires. Every pass ends with all
+//! so that one launch takes about `launch_target` (by default 400 ms on a GPU, 100 ms on a CPU:
+//! [`default_launch_target`]): long enough to keep a GPU busy, short enough that a display
+//! GPU's watchdog (about 2 s) never fires. Every pass ends with all
 //! pixels at the same sample count, and the kernel adds samples one at a time onto the running
 //! sums, so the image does not depend on how the work was split.
 
@@ -119,8 +120,9 @@ pub struct RenderOptions {
     pub rr_depth: u32,
     /// Roulette's threshold: fixed, or chosen by measured efficiency ([`strategy`]).
     pub roulette: Roulette,
-    /// Wanted duration of one kernel launch.
-    pub launch_target: Duration,
+    /// Wanted duration of one kernel launch; `None`: the device's
+    /// ([`default_launch_target`]).
+    pub launch_target: Option<Duration>,
     pub texture_filter: TextureFilter,
     /// Largest texture image accepted, in pixels.
     pub max_texture_pixels: u64,
@@ -167,7 +169,7 @@ impl Default for RenderOptions {
             // renders of one seed are the same bit for bit; the command line's default is
             // auto for both.
             roulette: Roulette::Threshold(1.0),
-            launch_target: Duration::from_millis(100),
+            launch_target: None,
             texture_filter: TextureFilter::Bilinear,
             max_texture_pixels: crate::scene::texture::DEFAULT_MAX_PIXELS,
             max_mesh_bytes: crate::scene::mesh::DEFAULT_MAX_FILE_BYTES,
@@ -403,15 +405,27 @@ pub struct Renderer<'d> {
     bad_first: ocl::Buffer<u32>,
     /// Samples per pixel the film already holds when the next render starts ([`Self::resume`]).
     start_samples: u32,
-    /// Samples per pixel of the whole image where the render is a chunk of it (several
-    /// devices' render: [`Self::render_chunk`]): the trial extrapolates to them, not to the
-    /// chunk's.
-    image_samples: Option<u32>,
     /// How the last render launched its passes, and for which strategy: the next render of
     /// that strategy starts from it instead of probing again (a chunk of several devices'
     /// render would otherwise spend its first pass on launches of one sample: render/multi.rs).
     launch_plan: Option<(Strategy, LaunchPlan)>,
     options: RenderOptions,
+}
+
+/// The launch target on a device of `kind` when the options leave it
+/// ([`RenderOptions::launch_target`]): 400 ms on a GPU, 100 ms on a CPU. A GPU's work-item
+/// renders its pixel's samples of a launch one after another, a lane whose path has ended
+/// starting the next (path regeneration, kernels/pathtracer.cl): with one or two samples a
+/// launch, as 100 ms gave the showcases at their sizes, lanes idle until the longest path of
+/// their warp ends, and every pass ends in an error estimate and a wait. On the H200 400 ms
+/// against 100 (BENCHMARKS.md): case0 (2560x1440, 64 samples) with light sampling 2.73 s
+/// against 3.70, without 0.64 against 0.80; case1 without, 2.74 against 3.30; textures with,
+/// 2.27 against 2.67; meshes with, 2.46 against 2.69; case2 0.49 against 0.51. Launches sized
+/// by the slowest of the pass before stay well within a display watchdog's 2 s. A CPU keeps 100
+/// ms: its progress and its trial's launches are timed at that grain, and PoCL idles no lanes
+/// that way.
+pub fn default_launch_target(kind: &str) -> Duration {
+    Duration::from_millis(if kind == "CPU" { 100 } else { 400 })
 }
 
 /// The shape of a pass's launches: `rows` rows of `spp` samples each.
@@ -684,7 +698,6 @@ impl<'d> Renderer<'d> {
             bad,
             bad_first,
             start_samples: 0,
-            image_samples: None,
             launch_plan: None,
             options,
         };
@@ -847,6 +860,15 @@ impl<'d> Renderer<'d> {
         Ok(f64::from(rows.count) / f64::from(height) / seconds)
     }
 
+    /// The wanted duration of a launch, in seconds: the options', or the device's default.
+    fn launch_target(&self) -> f64 {
+        self.options
+            .launch_target
+            .unwrap_or_else(|| default_launch_target(&self.device.description.kind))
+            .as_secs_f64()
+            .max(1e-3)
+    }
+
     /// Renders `rows` x samples [sample_start, +count) in launches of about the launch target
     /// (the first of at most `first` rows, the rest sized from its rate): returns the seconds
     /// spent in launches, wall and CPU ([`clock::Spent`]).
@@ -857,7 +879,7 @@ impl<'d> Renderer<'d> {
         count: u32,
         first: u32,
     ) -> Result<clock::Spent> {
-        let target = self.options.launch_target.as_secs_f64().max(1e-3);
+        let target = self.launch_target();
         let mut per_launch = rows.count.min(first).max(1);
         let (mut done, mut spent) = (0u32, clock::Spent::default());
         while done < rows.count {
@@ -915,11 +937,10 @@ impl<'d> Renderer<'d> {
                 first
             }
         };
-        // A CPU's first round takes the samples that extrapolate, on fewer rows.
+        // A CPU's first round takes the full round's samples, on fewer rows.
         let least = strategy::least_trial_samples(&kind);
         let first = strategy::with_least_samples(first, least, (width, height));
-        let render_samples = self.image_samples.or(self.options.spp);
-        let (scouted, _) = self.trial_round(&all, first, render_samples, None, &start)?;
+        let (scouted, _) = self.trial_round(&all, first, None, &start)?;
         let survivors = scouted.survivors();
         let spp = self.options.spp.or_else(|| {
             let best = &scouted.measured[scouted.chosen];
@@ -939,7 +960,6 @@ impl<'d> Renderer<'d> {
             None => scouted,
             Some(plan) => {
                 self.clear_film()?;
-                let render_samples = self.image_samples.or(spp);
                 // On a GPU a full round narrower than the scouts times its candidates by the
                 // scouts' seconds a path.
                 let timing =
@@ -949,8 +969,7 @@ impl<'d> Renderer<'d> {
                             .map(|&i| scouted.measured[i].seconds_per_sample)
                             .collect()
                     });
-                let (round, parts) =
-                    self.trial_round(&survivors, plan, render_samples, timing, &start)?;
+                let (round, parts) = self.trial_round(&survivors, plan, timing, &start)?;
                 let mut choice = Choice::merge(&scouted, &survivors, round);
                 // The last film rendered is still there: the winner's when it rendered last
                 // (survivors() puts the scouts' best last) on every row, in one part. The
@@ -975,9 +994,7 @@ impl<'d> Renderer<'d> {
     /// render the plan's rows and samples, on a CPU in parts of the samples
     /// ([`strategy::sample_parts`]: every candidate renders a part on all the rows, in the
     /// order of `which`, before the next part), each part added on the device to the
-    /// candidate's sums (render/trial.rs) before the film is cleared for the next; where the
-    /// round extrapolates to the render's samples, `render_samples` where known
-    /// ([`strategy::early_samples`]), kept after its first samples too. The film is left
+    /// candidate's sums (render/trial.rs) before the film is cleared for the next. The film is left
     /// holding the last render: with one part, the last candidate's whole round. With
     /// `timing` (seconds a path, one per candidate of `which`) the candidates are compared by
     /// those instead of this round's launches.
@@ -985,7 +1002,6 @@ impl<'d> Renderer<'d> {
         &mut self,
         which: &[usize],
         plan: strategy::TrialPlan,
-        render_samples: Option<u32>,
         timing: Option<Vec<f64>>,
         start: &Instant,
     ) -> Result<(Choice, usize)> {
@@ -998,10 +1014,8 @@ impl<'d> Renderer<'d> {
             col_step: plan.col_step.clamp(1, width.max(1)),
         };
         let strategies: Vec<Strategy> = which.iter().map(|&i| self.candidates[i]).collect();
-        let early = strategy::early_samples(plan.samples, render_samples);
         let parts = strategy::sample_parts(
             plan.samples,
-            early,
             strategy::timing_parts(&self.device.description.kind),
         );
         let kernels = self
@@ -1009,7 +1023,7 @@ impl<'d> Renderer<'d> {
             .take()
             .expect("trial kernels wherever there are several candidates");
         let round = (|| {
-            let mut kept = kernels.round(rows, strategies.len(), plan.samples, early)?;
+            let mut kept = kernels.round(rows, strategies.len(), plan.samples)?;
             let launch = strategy::first_trial_launch(&self.device.description.kind, rows.count);
             let first = self.options.first_sample;
             let mut timed = vec![Vec::new(); strategies.len()];
@@ -1023,17 +1037,7 @@ impl<'d> Renderer<'d> {
                         self.clear_film()?;
                     }
                     self.select(candidate)?;
-                    // The part's samples, in two launches where the early film lies within.
-                    let mut seconds = clock::Spent::default();
-                    let mut done = from;
-                    if let Some(n) = early.filter(|&n| from < n && n <= to) {
-                        seconds += self.render_rows(rows, first + done, n - done, launch)?;
-                        kept.keep_early(k)?;
-                        done = n;
-                    }
-                    if done < to {
-                        seconds += self.render_rows(rows, first + done, to - done, launch)?;
-                    }
+                    let seconds = self.render_rows(rows, first + from, to - from, launch)?;
                     timed[k].push((seconds, to - from));
                     // The trial's few samples (at most 64) need no compensation: `sum` alone
                     // is exact enough.
@@ -1054,7 +1058,6 @@ impl<'d> Renderer<'d> {
                 strategies: strategies.clone(),
                 seconds,
                 samples: plan.samples,
-                render_samples,
                 pixels: kept.pixels(),
             };
             let pixels = width as f64 * height as f64;
@@ -1109,12 +1112,6 @@ impl<'d> Renderer<'d> {
         ))
     }
 
-    /// The samples per pixel of the whole image that this renderer's chunks
-    /// ([`Self::render_chunk`]) are part of: its trial extrapolates to them.
-    pub fn set_image_samples(&mut self, samples: u32) {
-        self.image_samples = Some(samples);
-    }
-
     /// Traces samples `first .. first + spp` (`first` a multiple of 8) into the film as it
     /// stands, without reading it back or estimating its error: a chunk of a render that
     /// several devices split (render/multi.rs). A device's chunks come in increasing order, so
@@ -1152,7 +1149,7 @@ impl<'d> Renderer<'d> {
     ) -> Result<Traced> {
         let (width, height) = (self.width(), self.height());
         let pixels = width as f64 * height as f64;
-        let target = self.options.launch_target.as_secs_f64().max(1e-3);
+        let target = self.launch_target();
         let total = self.options.spp;
         let start = Instant::now();
         let choice = self.choose_strategy()?;

@@ -257,8 +257,7 @@ pub fn render_on_devices(
         }
         report(device, 0);
     };
-    // The first chunk chooses the strategy, for the whole render's samples.
-    first.set_image_samples(total);
+    // The first chunk chooses the strategy.
     let t0 = Instant::now();
     let choice = first.render_chunk(options.first_sample, first_chunk, &mut |n| report(0, n))?;
     finish(0, first_chunk, t0.elapsed().as_secs_f64());

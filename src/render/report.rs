@@ -84,7 +84,7 @@ pub fn write_report(path: &Path, rows: &[PassReport], choice: &Choice) -> Result
                         format!(
                             "    {{\"light_sampling\": {}, \"rr_threshold\": {}, \
                              \"relmse_x_seconds\": {}, \"relative_variance\": {}, \
-                             \"trial_samples\": {}, \"extrapolated_from\": {}, \
+                             \"trial_samples\": {}, \
                              \"seconds_per_path\": {}, \"missed_rare_paths\": {}, \
                              \"dropped_after_scouting\": {}, \"chosen\": {}}}",
                             m.strategy.light_sampling,
@@ -92,17 +92,6 @@ pub fn write_report(path: &Path, rows: &[PassReport], choice: &Choice) -> Result
                             json_number(m.efficiency(choice.pixels)),
                             json_number(m.relative_variance),
                             m.samples,
-                            m.extrapolated_from.map_or(
-                                "null".to_string(),
-                                |[(n1, v1), (n2, v2)]| {
-                                    format!(
-                                        "[{{\"samples\": {n1}, \"relative_variance\": {}}}, \
-                                     {{\"samples\": {n2}, \"relative_variance\": {}}}]",
-                                        json_number(v1),
-                                        json_number(v2)
-                                    )
-                                }
-                            ),
                             json_number(m.seconds_per_sample),
                             m.missed_rare_paths,
                             m.dropped,

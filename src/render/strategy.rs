@@ -27,8 +27,7 @@
 //!   the H200; this one 1-2% of the showcases'.
 //! - A render limited by time alone knows its samples only once a round has timed the
 //!   candidates: it scouts at the device's floor of paths ([`time_limited_scout_plan`]) and
-//!   sizes the full round, and the extrapolation, by the samples its time left affords at the
-//!   best one's speed ([`samples_within`]).
+//!   sizes the full round by the samples its time left affords at the best one's speed ([`samples_within`]).
 //! - Each round spends its budget on more samples rather than on more than about
 //!   [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]): more pixels add little precision. A GPU's
 //!   scouts are the exception: a GPU keeps a work-item a pixel, and a lean program idles in a
@@ -36,12 +35,12 @@
 //! - The statistics ([`choose`] over [`TrialSums`]) are computed on the device
 //!   (render/trial.rs): a read-back of the trial's rows and a host pass over them had cost a
 //!   fast scene more than its candidates' renders.
-//! - A round of at least [`EXTRAPOLATION_SPAN`] × [`TRIAL_SPP`] samples a pixel also measures
-//!   each candidate after its first TRIAL_SPP, on the same pixels, and extrapolates the
-//!   relative variance to the render's samples ([`extrapolate`]): quasi-random samples lower it
-//!   by different shares for different settings, and a few samples read settings tied that the
-//!   render has 12% apart. A CPU's first round takes those samples on a lattice of rows and
-//!   columns ([`with_least_samples`]), its short renders affording no second round.
+//! - A full round takes at least [`LEAST_FULL_ROUND_SPP`] samples a pixel: quasi-random
+//!   samples lower the relative variance by different shares for different settings, and a
+//!   few samples read settings tied that the render has 12% apart. A CPU's first round takes
+//!   those samples on a lattice of rows and columns ([`with_least_samples`]), its short
+//!   renders affording no second round. The figures are the round's own, not extrapolated to
+//!   the render's samples (why: [`LEAST_FULL_ROUND_SPP`]).
 //!
 //! The render then goes on with the winner from sample 0, or, when the winner rendered the
 //! full round last and on every row, from the samples that round left in the film: either way
@@ -59,8 +58,8 @@ use std::fmt;
 /// variance would count the spread within the pixel that the quasi-random samples integrate
 /// away, and blur the contrast between candidates (on smallpt it read pure path tracing's
 /// variance 1.3 times light sampling's where the render measures 1.9). Quasi-random samples
-/// gain more with more samples, so the trial's figures are those of its own few samples, or
-/// extrapolated from two counts ([`extrapolate`]).
+/// gain more with more samples, and by different shares for different settings, so a round
+/// that affords it measures at more ([`LEAST_FULL_ROUND_SPP`]).
 pub const TRIAL_SPP: u32 = 8;
 
 /// The most samples per pixel a trial takes, however long the render.
@@ -107,22 +106,31 @@ const MIN_SCOUT_PATHS_CPU: f64 = (1 << 13) as f64;
 /// A full round runs only where it measures each survivor on at least this many times the
 /// scouting round's samples ([`full_round_plan`]): one barely larger repeats the scouts' noise
 /// (its standard errors 10% smaller for 1.2 times the paths) at the price of every survivor's
-/// launches again. Or where it extrapolates to the render's samples and the scouts did not:
-/// a GPU's scouts of [`TRIAL_SPP`] samples on 2^19 pixels (meshes, 1280x720: 4 samples'
+/// launches again. Or where it takes [`LEAST_FULL_ROUND_SPP`] samples a pixel (fewer than the
+/// render) and the scouts fewer: a GPU's scouts of [`TRIAL_SPP`] samples on 2^19 pixels (meshes, 1280x720: 4 samples'
 /// worth each, against a full round's 6) read light sampling off's relative variance 1.34
 /// times its render's and on's 1.15 times, and chose on, 8% behind.
 const FULL_ROUND_GAIN: f64 = 2.0;
 
-/// A trial round of at least this many times [`TRIAL_SPP`] samples a pixel also measures each
-/// candidate after its first TRIAL_SPP samples, on the same pixels, and extrapolates the two to
-/// the render's samples ([`early_samples`], [`extrapolate`]). Farther apart, the step beyond the
-/// round is at most a third of the distance between the two (k below 1/3 for any render);
-/// closer, a larger factor (samples twice the first: k up to 1).
-pub const EXTRAPOLATION_SPAN: u32 = 4;
-
-/// The samples a pixel of a full round, at the least ([`full_round_plan`]): enough to
-/// extrapolate.
-const LEAST_FULL_ROUND_SPP: u32 = EXTRAPOLATION_SPAN * TRIAL_SPP;
+/// The samples a pixel of a full round, at the least ([`full_round_plan`]). A candidate's
+/// relative variance of one sample falls with the samples a pixel (the quasi-random samples
+/// gain more with more of them, and a ratio over a denominator of n samples carries a bias of
+/// O(1/n)), by different shares for different settings: with few samples the trial can read
+/// two settings tied where the render has one well ahead (PoCL, meshes at 160x120: with light
+/// sampling off, roulette below 0.3, 0.48, 0.41 and 0.35 at 8, 32 and 256 samples, with it on
+/// 0.30, 0.27 and 0.245; BENCHMARKS.md): the first 12% ahead at 256 where the two tie at 8,
+/// 5% at 32.
+///
+/// The figures are those of the round's own samples, not extrapolated to the render's: a line
+/// a + b n^-p through those at 8 and 32 samples (p = 1, as clpt had it) chose as they do on the
+/// H200 (twelve scenes, four seeds, the same choices in all 48 trials; p = 0.5 worse on room)
+/// and worse on PoCL (twelve scenes, 24 or 48 trials each, the same truth: 2.4% behind the
+/// best fixed setting on average against 1.9%, case2 6.8% against 2.7%). The step from 8 to
+/// 32 samples is mostly noise there (one to three of its standard deviations over seeds), and
+/// where it is not the render's variance does not follow it: case2's light sampling on fell
+/// 27% and off 16% from 8 to 32 in the trial, in the render both about 25%, and the two kept
+/// their ratio to 512 samples (0.69 to 0.71; BENCHMARKS.md).
+const LEAST_FULL_ROUND_SPP: u32 = 4 * TRIAL_SPP;
 
 /// The pixels a GPU's full round keeps, at the least, where taking [`LEAST_FULL_ROUND_SPP`]
 /// thins them out ([`full_round_least_pixels`]).
@@ -150,38 +158,6 @@ pub fn full_round_least_pixels(kind: &str) -> u64 {
 /// PoCL), so fewer pixels with more samples cost it nothing, while a CPU's short renders
 /// afford no second round (BENCHMARKS.md).
 const LEAST_TRIAL_SPP_CPU: u32 = LEAST_FULL_ROUND_SPP;
-
-/// The exponent p of the model of how the relative variance of one sample, V(n) = n Var(mean
-/// of n), changes with the samples a pixel n: V(n) = a + b n^-p, a the part that more samples
-/// do not lower. Why a model at all: V changes by different shares for different settings, so
-/// that the trial's few samples can read two settings tied where the render has one well
-/// ahead (PoCL, 160x120, V at 8, 32 and 256 samples over the whole image: meshes with light
-/// sampling off, roulette below 0.3, 0.48, 0.41 and 0.35, with it on 0.30, 0.27 and 0.245, and
-/// the first is 12% ahead at 256 where the two tie at 8; BENCHMARKS.md). Two terms fall with n:
-/// the quasi-random samples' gain (Owen-scrambled Sobol points, kernels/rng.h, integrate the
-/// camera's and the first bounces' dimensions with the error of stratified samples; over a
-/// pixel crossed by edges a variance of the mean O(n^-1.5), Mitchell, "Consequences of
-/// stratified sampling in graphics", SIGGRAPH 1996: b n^-0.5), and the bias of a ratio over a
-/// denominator of n samples (O(1/n)). p = 1, measured against p = 0.5, through 8 and 32
-/// samples to 256: ceiling_room with light sampling off (V 0.31, 0.20 and 0.16) gives 0.168
-/// where 0.5 gives 0.13, which chose that setting, 38% worse, in one seed of six; meshes'
-/// pair above gives 0.38 and 0.256 (0.5: 0.355 and 0.243), the right order still; and the
-/// step beyond the round is 0.29 of the span instead of 0.65, so the round's noise grows by
-/// 1.29 instead of 1.65. Over six seeds at each (PoCL, 2 cores): ceiling_room right 6 times
-/// (0.5: 5), smallpt 4 (3), meshes 3 (4). A V that grows with n (b < 0: rare paths, which the
-/// common denominator partly hides at few samples) grows on the same way: smallpt's caustics
-/// read 0.48, 0.97 and 2.5 with light sampling on and roulette below 1, which no line through
-/// the first two reaches.
-const QUASI_RANDOM_EXPONENT: f64 = 1.0;
-
-/// The samples a pixel after which a trial round of `samples` also keeps each candidate's film
-/// for a render of `spp` (`None`: a time limit or a target error), where it extrapolates:
-/// [`TRIAL_SPP`], where the round takes at least [`EXTRAPOLATION_SPAN`] times that and the
-/// render more samples than the round.
-pub fn early_samples(samples: u32, spp: Option<u32>) -> Option<u32> {
-    let far = samples >= EXTRAPOLATION_SPAN * TRIAL_SPP;
-    (far && spp.is_some_and(|n| n > samples)).then_some(TRIAL_SPP)
-}
 
 /// The least samples a pixel of a trial round on a device of `kind` (an OpenCL device type as
 /// `clpt devices` lists it: "CPU", "GPU", ...): on a GPU [`TRIAL_SPP`], which keeps a round's
@@ -307,31 +283,6 @@ fn rows_in_whole_groups(step: u32, height: u32) -> (u32, f64) {
         .map_or((step, 1.0), |(s, n)| (s, f64::from(n) / f64::from(rows)))
 }
 
-/// The relative variance of one sample at `n` samples a pixel, and its standard error, from
-/// those measured at `n1` and `n2` > `n1` samples (each `(n, v, se)`): the line in n^-p
-/// ([`QUASI_RANDOM_EXPONENT`]) through the two, at n, but never below the pure power law
-/// through the second (a = 0: no variance left that the samples do not stratify), nor for n
-/// at most n2 other than the second.
-pub fn extrapolate(
-    (n1, v1, se1): (u32, f64, f64),
-    (n2, v2, se2): (u32, f64, f64),
-    n: u32,
-) -> (f64, f64) {
-    let g = |n: u32| f64::from(n).powf(-QUASI_RANDOM_EXPONENT);
-    if n <= n2 || n2 <= n1 {
-        return (v2, se2);
-    }
-    // v = v2 + k (v2 - v1): k the step beyond n2 in units of the step from n1 to n2.
-    let k = (g(n2) - g(n)) / (g(n1) - g(n2));
-    let line = v2 + k * (v2 - v1);
-    let floor = v2 * g(n) / g(n2);
-    if line >= floor {
-        (line, ((1.0 + k) * se2).hypot(k * se1))
-    } else {
-        (floor, se2 * g(n) / g(n2))
-    }
-}
-
 /// Parts a CPU device's trial round renders in ([`timing_parts`]).
 const CPU_TIMING_PARTS: u32 = 5;
 
@@ -404,21 +355,13 @@ pub fn robust_seconds(timed: &[Vec<(f64, u32)>], samples: u32) -> Vec<f64> {
         .collect()
 }
 
-/// The samples of each of a round's `parts` (ranges of its `samples` a pixel, from 0): where
-/// the round keeps its films after `early` samples, the first part ends there and the others
-/// share the rest; else all share alike. Never more parts than samples to share (one part:
-/// the whole round, which renders `early` and the rest in two launches).
-pub fn sample_parts(samples: u32, early: Option<u32>, parts: u32) -> Vec<(u32, u32)> {
-    let split = |from: u32, to: u32, n: u32| {
-        let n = n.clamp(1, (to - from).max(1));
-        (0..n).map(move |i| (from + (to - from) * i / n, from + (to - from) * (i + 1) / n))
-    };
-    match early {
-        Some(e) if parts > 1 && e < samples => std::iter::once((0, e))
-            .chain(split(e, samples, parts - 1))
-            .collect(),
-        _ => split(0, samples, parts).collect(),
-    }
+/// The samples of each of a round's `parts` (ranges of its `samples` a pixel, from 0), shared
+/// alike; never more parts than samples to share.
+pub fn sample_parts(samples: u32, parts: u32) -> Vec<(u32, u32)> {
+    let n = parts.clamp(1, samples.max(1));
+    (0..n)
+        .map(|i| (samples * i / n, samples * (i + 1) / n))
+        .collect()
 }
 
 /// How a device of `kind` (an OpenCL device type as `clpt devices` lists it: "CPU", "GPU",
@@ -441,7 +384,7 @@ pub fn scouting(kind: &str) -> Scouting {
 /// Whether a device of `kind` compares a full round's candidates (`full`, after scouts of
 /// plan `scouts`, on an image of `size`) by the scouts' seconds a path rather than by its own
 /// launches: on a GPU, where the full round takes fewer pixels ([`full_round_least_pixels`]:
-/// 2^16 at the least, for the samples that extrapolate), and a lean program then idles in
+/// 2^16 at the least, for its samples a pixel), and a lean program then idles in
 /// its launches ([`GPU_SCOUT_PIXELS`]). The variances stay the full round's.
 pub fn times_by_scouts(kind: &str, scouts: TrialPlan, full: TrialPlan, size: (u32, u32)) -> bool {
     kind != "CPU" && full.pixels(size) < scouts.pixels(size)
@@ -657,8 +600,8 @@ pub fn plan_for_budget(budget: f64, height: u32) -> TrialPlan {
 /// [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]), and at least [`LEAST_FULL_ROUND_SPP`] samples
 /// a pixel on any device, on pixels thinned out no further than to `least_pixels`
 /// ([`with_least_samples_on`], [`full_round_least_pixels`]): a small image would otherwise
-/// spend it on [`TRIAL_SPP`] samples on every row, whose figures are not extrapolated (and on
-/// a CPU replace the scouts' extrapolated ones).
+/// spend it on [`TRIAL_SPP`] samples on every row (and on a CPU replace the scouts' figures
+/// at more samples).
 /// - PoCL, smallpt at 96x72 and 4096 samples, 24 trials: light sampling on with roulette
 ///   below 1, 37% behind roulette below 0.3 in the render, chosen 15 times with 8 samples on
 ///   every pixel, 3 times with 32 on a quarter of them (BENCHMARKS.md, "At the original's
@@ -684,10 +627,11 @@ pub fn full_round_plan(
     let budget = FULL_ROUND_SHARE * f64::from(spp) * chosen.seconds_per_sample / total;
     let plan = plan_on_rows(budget, row_step_for(width, height, TRIAL_PIXELS), height);
     let plan = with_least_samples_on(plan, LEAST_FULL_ROUND_SPP, (width, height), least_pixels);
-    // A round that extrapolates where the scouts did not (a GPU's, of TRIAL_SPP samples)
-    // measures what they could not, whatever its cost against theirs.
-    let extrapolates = |p: TrialPlan| early_samples(p.samples, Some(spp)).is_some();
-    let new_figures = extrapolates(plan) && !extrapolates(scouted);
+    // A round of the full round's samples where the scouts took fewer (a GPU's, of TRIAL_SPP)
+    // measures what they could not, whatever its cost against theirs; not where the render
+    // itself takes no more.
+    let deep = |p: TrialPlan| p.samples >= LEAST_FULL_ROUND_SPP && spp > p.samples;
+    let new_figures = deep(plan) && !deep(scouted);
     let gain = plan.cost() >= FULL_ROUND_GAIN * scouted.cost() || new_figures;
     (survivors.len() > 1 && budget.is_finite() && gain).then_some(plan)
 }
@@ -771,9 +715,9 @@ fn scout_on(budget: f64, (width, height): (u32, u32), scouting: Scouting) -> Tri
 
 /// The samples per pixel a render of `pixels` pixels reaches in `seconds` at
 /// `seconds_per_sample` a path (a time-limited render's best candidate, as its first trial
-/// round timed it): the sample count its full round is sized by and extrapolates to, at least
-/// one. A CPU's trial reads up to twice the render's seconds a path (BENCHMARKS.md), so this
-/// errs low: a smaller full round, a shorter extrapolation.
+/// round timed it): the sample count its full round is sized by, at least one. A CPU's trial
+/// reads up to twice the render's seconds a path (BENCHMARKS.md), so this errs low: a smaller
+/// full round.
 pub fn samples_within(seconds: f64, seconds_per_sample: f64, pixels: f64) -> u32 {
     let samples = seconds / (seconds_per_sample * pixels);
     if samples.is_finite() {
@@ -806,9 +750,6 @@ pub struct Measured {
     pub dropped: bool,
     /// Samples per pixel of the round these figures come from.
     pub samples: u32,
-    /// Where `relative_variance` is extrapolated to the render's samples ([`extrapolate`]):
-    /// the two sample counts and the relative variances the round measured at each.
-    pub extrapolated_from: Option<[(u32, f64); 2]>,
 }
 
 impl Measured {
@@ -846,7 +787,6 @@ impl Choice {
                 missed_rare_paths: false,
                 dropped: false,
                 samples: 0,
-                extrapolated_from: None,
             }],
             chosen: 0,
             seconds: 0.0,
@@ -907,21 +847,19 @@ impl Choice {
     }
 
     /// One line per candidate: the strategy and its measured relMSE × seconds, relative
-    /// variance per sample and microseconds per path, the chosen one marked.
+    /// variance per sample (at the round's samples a pixel) and microseconds per path, the
+    /// chosen one marked.
     pub fn trial_lines(&self) -> Vec<String> {
         self.measured
             .iter()
             .enumerate()
             .map(|(i, m)| {
-                let extrapolated = m.extrapolated_from.map_or(String::new(), |[(n1, v1), (n2, v2)]| {
-                    format!(" extrapolated from {v1:.3e} at {n1} samples and {v2:.3e} at {n2}")
-                });
                 format!(
-                    "{}: relMSE x s {:.3e} (relative variance {:.3e} per sample{}, {:.4} us per path){}{}{}",
+                    "{}: relMSE x s {:.3e} (relative variance {:.3e} per sample at {} samples, {:.4} us per path){}{}{}",
                     m.strategy,
                     m.efficiency(self.pixels),
                     m.relative_variance,
-                    extrapolated,
+                    m.samples,
                     m.seconds_per_sample * 1e6,
                     if m.missed_rare_paths {
                         ", image mean too low: rare paths missed"
@@ -960,15 +898,7 @@ pub trait TrialSums {
     /// [`REL_EPSILON`](super::metrics::REL_EPSILON), d the films' sums
     /// weighted by `weights`) and of its square.
     fn terms(&mut self, weights: &[f64]) -> ClptResult<Vec<(f64, f64)>>;
-    /// Where the round also kept each film after its first samples: their count, and per
-    /// film the sums of [`Self::terms`] over the same denominator (the final films', weighted
-    /// by `weights`).
-    fn early_terms(&mut self, weights: &[f64]) -> ClptResult<Option<EarlyTerms>>;
 }
-
-/// [`TrialSums::early_terms`]: the films' first samples a pixel and, per film, the sums of
-/// [`TrialSums::terms`] over them.
-pub type EarlyTerms = (u32, Vec<(f64, f64)>);
 
 /// What a trial round measured besides its sums.
 #[derive(Clone, Debug)]
@@ -979,9 +909,6 @@ pub struct Round {
     pub seconds: Vec<f64>,
     /// Samples per pixel each rendered.
     pub samples: u32,
-    /// Samples per pixel of the render the figures are extrapolated to, where the round kept
-    /// its films early too ([`TrialSums::early_terms`]).
-    pub render_samples: Option<u32>,
     /// The trial pixels each rendered.
     pub pixels: usize,
 }
@@ -1068,44 +995,23 @@ pub fn choose(
         .collect();
     let weights = denominator_weights(&totals, &missed, round.samples);
     let np = round.pixels.max(1) as f64;
-    // Per film: the mean relative variance over the trial pixels and its standard error.
-    let mean_and_se = |sums: Vec<(f64, f64)>| -> Vec<(f64, f64)> {
-        sums.into_iter()
-            .map(|(rel, rel_sq)| {
-                let mean = rel / np;
-                (mean, ((rel_sq / np - mean * mean).max(0.0) / np).sqrt())
-            })
-            .collect()
-    };
-    let terms = mean_and_se(sums.terms(&weights)?);
-    let early = match (sums.early_terms(&weights)?, round.render_samples) {
-        (Some((n, early)), Some(spp)) => Some((n, mean_and_se(early), spp)),
-        _ => None,
-    };
     let measured: Vec<Measured> = round
         .strategies
         .iter()
         .zip(&round.seconds)
-        .zip(&terms)
+        .zip(sums.terms(&weights)?)
         .enumerate()
-        .map(|(i, ((&strategy, &seconds), &(v, se)))| {
-            let ((relative_variance, relative_variance_se), extrapolated_from) = match &early {
-                Some((n, early, spp)) => {
-                    let (v1, se1) = early[i];
-                    let at_spp = extrapolate((*n, v1, se1), (round.samples, v, se), *spp);
-                    (at_spp, Some([(*n, v1), (round.samples, v)]))
-                }
-                None => ((v, se), None),
-            };
+        .map(|(i, ((&strategy, &seconds), (rel, rel_sq)))| {
+            // The mean relative variance over the trial pixels and its standard error.
+            let mean = rel / np;
             Measured {
                 strategy,
                 seconds_per_sample: seconds / (f64::from(round.samples) * np),
-                relative_variance,
-                relative_variance_se,
+                relative_variance: mean,
+                relative_variance_se: ((rel_sq / np - mean * mean).max(0.0) / np).sqrt(),
                 missed_rare_paths: missed[i],
                 dropped: false,
                 samples: round.samples,
-                extrapolated_from,
             }
         })
         .collect();
@@ -1221,7 +1127,6 @@ mod tests {
             missed_rare_paths: false,
             dropped: false,
             samples: 8,
-            extrapolated_from: None,
         }
     }
 
@@ -1254,15 +1159,14 @@ mod tests {
         // pixels at most), 16 samples.
         let scouted = scout_plan(4, Some(4000), (640, 480), scouting("CPU"));
         assert_eq!((scouted.row_step, scouted.samples), (4, 8));
-        // 16 samples on every 2nd row of 640x480 (2^18 pixels at most) become the samples
-        // that extrapolate (32) on every 4th column of those rows, at the same cost.
+        // 16 samples on every 2nd row of 640x480 (2^18 pixels at most) become the full
+        // round's least samples (32) on every 4th column of those rows, at the same cost.
         let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (640, 480), 0).unwrap();
         assert_eq!((plan.row_step, plan.col_step, plan.samples), (2, 2, 32));
         // On 512x512 pixels (2^18), 8 samples on every row become 32 on a quarter of the
         // pixels, every row kept.
         let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 4000, (512, 512), 0).unwrap();
         assert_eq!((plan.row_step, plan.col_step, plan.samples), (1, 4, 32));
-        assert_eq!(early_samples(plan.samples, Some(4000)), Some(TRIAL_SPP));
         // A GPU keeps 2^16 pixels at the least: on 320x240 (ceiling_room) every one of the
         // 76,800, at four times the cost; on 512x512 a quarter, as a CPU.
         let gpu = full_round_least_pixels("GPU");
@@ -1275,24 +1179,28 @@ mod tests {
         let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 40_000, (640, 480), 0).unwrap();
         assert_eq!((plan.col_step, plan.samples), (1, 64));
         // A shorter render affords no more than the scouting round: no full round, unless it
-        // extrapolates where the scouts (8 samples) did not.
-        let extrapolating = plan_of(4, 4, 32);
-        assert_eq!(extrapolating.cost(), scouted.cost());
+        // takes 32 samples where the scouts took 8; not where the render takes no more.
+        let deep = plan_of(4, 4, 32);
+        assert_eq!(deep.cost(), scouted.cost());
         assert_eq!(
-            full_round_plan(&scout, extrapolating, &[1, 3, 2], 600, (640, 480), 0),
+            full_round_plan(&scout, deep, &[1, 3, 2], 600, (640, 480), 0),
             None
         );
         let plan = full_round_plan(&scout, scouted, &[1, 3, 2], 600, (640, 480), 0).unwrap();
         assert_eq!(plan.samples, 32);
+        assert_eq!(
+            full_round_plan(&scout, scouted, &[1, 3, 2], 32, (64, 48), 0),
+            None
+        );
         assert_eq!(
             full_round_plan(&scout, scouted, &[2], 4000, (640, 480), 0),
             None
         );
         // Nor one that would take less than twice the scouts' samples: at 1200 samples 3
         // samples' worth each, 8 samples on every third row (2.7 against the scouts' 2),
-        // where both extrapolate.
+        // where both take 32.
         assert_eq!(
-            full_round_plan(&scout, extrapolating, &[1, 3, 2], 1200, (640, 480), 0),
+            full_round_plan(&scout, deep, &[1, 3, 2], 1200, (640, 480), 0),
             None
         );
         // Merged: the full round's figures for the survivors, the scouts' for the dropped.
@@ -1316,34 +1224,7 @@ mod tests {
     }
 
     #[test]
-    fn the_relative_variance_is_extrapolated_along_the_model() {
-        // V(n) = 0.3 + 0.5 / n (the model's form): exact from any two counts.
-        let v = |n: u32| 0.3 + 0.5 / f64::from(n);
-        let (at_256, se) = extrapolate((8, v(8), 0.01), (32, v(32), 0.02), 256);
-        assert!((at_256 - v(256)).abs() < 1e-12);
-        // k = (1/32 - 1/256) / (1/8 - 1/32) = 0.29...: the standard error grows by (1 + k) on
-        // the second count's and k on the first's.
-        let k: f64 = (1.0 / 32.0 - 1.0 / 256.0) / (1.0 / 8.0 - 1.0 / 32.0);
-        assert!((k - 7.0 / 24.0).abs() < 1e-15);
-        assert!((se - ((1.0 + k) * 0.02).hypot(k * 0.01)).abs() < 1e-12);
-        // A variance that grows with the samples (rare paths found more often) grows on.
-        assert!(extrapolate((8, 0.5, 0.0), (32, 0.6, 0.0), 256).0 > 0.6);
-        // Never below the power law through the second: a fall of 8 to 1 would go below 0.
-        let (floor, _) = extrapolate((8, 8.0, 0.0), (32, 1.0, 0.0), 256);
-        assert!((floor - 32.0 / 256.0).abs() < 1e-12);
-        // At or below the second count, and for counts not increasing: the second.
-        assert_eq!(extrapolate((8, 0.5, 0.1), (32, 0.4, 0.2), 32), (0.4, 0.2));
-        assert_eq!(extrapolate((32, 0.5, 0.1), (32, 0.4, 0.2), 256), (0.4, 0.2));
-    }
-
-    #[test]
-    fn rounds_of_four_times_the_first_samples_extrapolate() {
-        // From 32 samples a pixel on, where the render takes more: kept after the first 8.
-        assert_eq!(early_samples(32, Some(256)), Some(8));
-        assert_eq!(early_samples(64, Some(65)), Some(8));
-        assert_eq!(early_samples(24, Some(256)), None);
-        assert_eq!(early_samples(32, Some(32)), None);
-        assert_eq!(early_samples(32, None), None);
+    fn a_cpus_rounds_take_the_full_rounds_samples() {
         // A CPU's rounds take 32 samples at the least, on pixels thinned out alike: every 4th
         // row at 8 samples keeps its rows and every 4th column at 32; an image narrower than
         // that thins its rows for the rest; never fewer than one row or column; more than 8
@@ -1446,21 +1327,17 @@ mod tests {
     }
 
     #[test]
-    fn a_round_in_parts_shares_its_samples_after_the_early_ones() {
+    fn a_round_in_parts_shares_its_samples_alike() {
         assert_eq!(
-            sample_parts(32, Some(8), 5),
-            [(0, 8), (8, 14), (14, 20), (20, 26), (26, 32)]
+            sample_parts(32, 5),
+            [(0, 6), (6, 12), (12, 19), (19, 25), (25, 32)]
         );
-        assert_eq!(sample_parts(33, Some(8), 3), [(0, 8), (8, 20), (20, 33)]);
-        // One part: the whole round (its early film kept within it).
-        assert_eq!(sample_parts(32, Some(8), 1), [(0, 32)]);
-        assert_eq!(
-            sample_parts(8, None, 5),
-            [(0, 1), (1, 3), (3, 4), (4, 6), (6, 8)]
-        );
+        assert_eq!(sample_parts(33, 3), [(0, 11), (11, 22), (22, 33)]);
+        // One part: the whole round.
+        assert_eq!(sample_parts(32, 1), [(0, 32)]);
+        assert_eq!(sample_parts(8, 5), [(0, 1), (1, 3), (3, 4), (4, 6), (6, 8)]);
         // Never more parts than samples.
-        assert_eq!(sample_parts(2, None, 5), [(0, 1), (1, 2)]);
-        assert_eq!(sample_parts(9, Some(8), 5), [(0, 8), (8, 9)]);
+        assert_eq!(sample_parts(2, 5), [(0, 1), (1, 2)]);
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! over them had cost a fast scene more than the trial's renders.
 
 use super::Rows;
-use super::strategy::{EarlyTerms, TrialSums};
+use super::strategy::TrialSums;
 use crate::device::Device;
 use crate::device::program::{self, BuiltProgram, KernelSources};
 use crate::error::{Error, Result};
@@ -88,8 +88,7 @@ impl TrialKernels {
             if terms {
                 builder
                     .arg_named("weights", placeholder)
-                    .arg(super::metrics::REL_EPSILON)
-                    .arg_named("base", 0u32);
+                    .arg(super::metrics::REL_EPSILON);
             }
             builder.arg_named("out", placeholder).build().map_err(&bad)
         };
@@ -111,15 +110,8 @@ impl TrialKernels {
     }
 
     /// A round of `films` candidates of `samples` samples a pixel on `rows`: room on the
-    /// device for every candidate's rows, zeroed, twice where the round also keeps them after
-    /// their first `early` samples ([`KeptRound::keep_early`]).
-    pub fn round(
-        &self,
-        rows: Rows,
-        films: usize,
-        samples: u32,
-        early: Option<u32>,
-    ) -> Result<KeptRound<'_>> {
+    /// device for every candidate's rows, zeroed.
+    pub fn round(&self, rows: Rows, films: usize, samples: u32) -> Result<KeptRound<'_>> {
         let pixels = rows.columns(self.width) as usize * rows.count as usize;
         let chunks = pixels.div_ceil(CHUNK as usize);
         let bad = fail("allocating the trial's buffers");
@@ -130,15 +122,13 @@ impl TrialKernels {
                 .build()
                 .map_err(&bad)
         };
-        let slots = films * if early.is_some() { 2 } else { 1 };
-        let kept = buffer(slots * 2 * pixels * 4)?;
+        let kept = buffer(films * 2 * pixels * 4)?;
         kept.cmd().fill(0.0f32, None).enq().map_err(&bad)?;
         Ok(KeptRound {
             kernels: self,
             rows,
             films,
             samples,
-            early,
             pixels,
             chunks,
             kept,
@@ -154,8 +144,6 @@ pub struct KeptRound<'k> {
     rows: Rows,
     films: usize,
     samples: u32,
-    /// Samples a pixel of the films kept early (in slots `films` on), if any.
-    early: Option<u32>,
     pixels: usize,
     chunks: usize,
     kept: ocl::Buffer<f32>,
@@ -176,21 +164,6 @@ impl KeptRound<'_> {
     /// the round renders only them (render/mod.rs, `trial_round`).
     pub fn keep(&mut self, slot: usize, clear: bool) -> Result<()> {
         assert!(slot < self.films, "slot {slot} of {} films", self.films);
-        self.keep_in(slot, clear)
-    }
-
-    /// As [`Self::keep`], for the film after the candidate's first `early` samples (a round
-    /// made with them), kept once; the film stays as it is, for the candidate's later samples.
-    pub fn keep_early(&mut self, slot: usize) -> Result<()> {
-        assert!(
-            self.early.is_some() && slot < self.films,
-            "early slot {slot} of {} films",
-            self.films
-        );
-        self.keep_in(self.films + slot, false)
-    }
-
-    fn keep_in(&mut self, slot: usize, clear: bool) -> Result<()> {
         let rows = self.rows;
         let k = &self.kernels.keep;
         let bad = fail("keeping the trial's rows");
@@ -210,8 +183,8 @@ impl KeptRound<'_> {
         let round_up = |n: u32| n.div_ceil(8) as usize * 8;
         // SAFETY: the film holds every row of the round (the renderer's trial rows lie in the
         // image) and every column it takes (fewer than `columns(width)` steps from the first);
-        // `kept` holds `films` slots of the round's pixels (twice that with early films: `slot`
-        // is below that); the kernel skips padded work-items.
+        // `kept` holds `films` slots of the round's pixels (`slot` is below that); the kernel
+        // skips padded work-items.
         unsafe {
             k.cmd()
                 .global_work_size([round_up(columns), round_up(rows.count)])
@@ -221,22 +194,21 @@ impl KeptRound<'_> {
         .map_err(&bad)
     }
 
-    /// Runs a reduction over the films of `samples` samples a pixel and adds its chunks' sums
-    /// in f64, in order: per film, two sums.
-    fn reduce(&self, kernel: &ocl::Kernel, samples: u32) -> Result<Vec<(f64, f64)>> {
+    /// Runs a reduction over the films and adds its chunks' sums in f64, in order: per film,
+    /// two sums.
+    fn reduce(&self, kernel: &ocl::Kernel) -> Result<Vec<(f64, f64)>> {
         let bad = fail("reducing the trial's rows");
         kernel.set_arg("kept", &self.kept).map_err(&bad)?;
         kernel.set_arg("pixels", self.pixels as u32).map_err(&bad)?;
         kernel.set_arg("films", self.films as u32).map_err(&bad)?;
-        kernel.set_arg("samples", samples).map_err(&bad)?;
+        kernel.set_arg("samples", self.samples).map_err(&bad)?;
         kernel.set_arg("out", &self.out).map_err(&bad)?;
         let mut sums = vec![(0.0, 0.0); self.films];
         if self.chunks == 0 {
             return Ok(sums);
         }
-        // SAFETY: `kept` holds `films` slots of `pixels` pixels (two float4 each), twice that
-        // where the round kept early films (the only reductions from slot `films` on), `out`
-        // two floats per chunk and film, `weights` one per film; one group a chunk.
+        // SAFETY: `kept` holds `films` slots of `pixels` pixels (two float4 each), `out` two
+        // floats per chunk and film, `weights` one per film; one group a chunk.
         unsafe {
             kernel
                 .cmd()
@@ -257,37 +229,17 @@ impl KeptRound<'_> {
     }
 }
 
-impl KeptRound<'_> {
-    /// The relative variances' sums of the films from slot `base` on, of `samples` samples.
-    fn terms_from(
-        &mut self,
-        weights: &[f64],
-        base: usize,
-        samples: u32,
-    ) -> Result<Vec<(f64, f64)>> {
+impl TrialSums for KeptRound<'_> {
+    fn totals(&mut self) -> Result<Vec<(f64, f64)>> {
+        self.reduce(&self.kernels.totals)
+    }
+
+    fn terms(&mut self, weights: &[f64]) -> Result<Vec<(f64, f64)>> {
         let bad = fail("writing the trial's weights");
         let weights: Vec<f32> = weights.iter().map(|&w| w as f32).collect();
         self.weights.write(&weights).enq().map_err(&bad)?;
         let terms = &self.kernels.terms;
         terms.set_arg("weights", &self.weights).map_err(&bad)?;
-        terms.set_arg("base", base as u32).map_err(&bad)?;
-        self.reduce(terms, samples)
-    }
-}
-
-impl TrialSums for KeptRound<'_> {
-    fn totals(&mut self) -> Result<Vec<(f64, f64)>> {
-        self.reduce(&self.kernels.totals, self.samples)
-    }
-
-    fn terms(&mut self, weights: &[f64]) -> Result<Vec<(f64, f64)>> {
-        self.terms_from(weights, 0, self.samples)
-    }
-
-    fn early_terms(&mut self, weights: &[f64]) -> Result<Option<EarlyTerms>> {
-        match self.early {
-            None => Ok(None),
-            Some(n) => Ok(Some((n, self.terms_from(weights, self.films, n)?))),
-        }
+        self.reduce(terms)
     }
 }

@@ -2,7 +2,7 @@
 //! `clpt::render::strategy::TrialSums`): the oracle the device's sums are held against.
 
 use clpt::render::metrics::REL_EPSILON;
-use clpt::render::strategy::{EarlyTerms, TrialSums};
+use clpt::render::strategy::TrialSums;
 
 /// One candidate's trial film: per trial pixel, the sum of its samples and the sum of those of
 /// its odd groups of four (red, green, blue and a fourth value the trial does not read).
@@ -12,25 +12,22 @@ pub struct HostFilm {
     pub sum_odd: Vec<[f32; 4]>,
 }
 
-/// A round's films, all of `samples` samples a pixel; where the round extrapolates, its films
-/// after their first samples too (that count, a film per candidate).
+/// A round's films, all of `samples` samples a pixel.
 #[derive(Clone)]
 pub struct HostRound {
     pub films: Vec<HostFilm>,
     pub samples: u32,
-    pub early: Option<(u32, Vec<HostFilm>)>,
 }
 
 impl HostRound {
-    /// The sums of `terms` for `films` of `n` samples (the round's own or its early ones),
-    /// over the denominator of the round's films weighted by `weights`.
-    fn terms_of(&self, films: &[HostFilm], n: u32, weights: &[f64]) -> Vec<(f64, f64)> {
-        let n = f64::from(n);
-        let pixels = self.films.first().map_or(0, |f| f.sum.len());
+    /// The sums of `terms`: over the denominator of the films weighted by `weights`.
+    fn terms_of(&self, weights: &[f64]) -> Vec<(f64, f64)> {
+        let (films, n) = (&self.films, f64::from(self.samples));
+        let pixels = films.first().map_or(0, |f| f.sum.len());
         let mut sums = vec![(0.0f64, 0.0f64); films.len()];
         for p in 0..pixels {
             let mut denominator = [0.0f64; 3];
-            for (film, &w) in self.films.iter().zip(weights) {
+            for (film, &w) in films.iter().zip(weights) {
                 for (d, &v) in denominator.iter_mut().zip(&film.sum[p][..3]) {
                     *d += w * f64::from(v);
                 }
@@ -81,13 +78,6 @@ impl TrialSums for HostRound {
     }
 
     fn terms(&mut self, weights: &[f64]) -> clpt::error::Result<Vec<(f64, f64)>> {
-        Ok(self.terms_of(&self.films, self.samples, weights))
-    }
-
-    fn early_terms(&mut self, weights: &[f64]) -> clpt::error::Result<Option<EarlyTerms>> {
-        Ok(self
-            .early
-            .as_ref()
-            .map(|(n, films)| (*n, self.terms_of(films, *n, weights))))
+        Ok(self.terms_of(weights))
     }
 }
