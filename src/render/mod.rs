@@ -5,9 +5,9 @@
 //! Each launch covers a band of rows and a run of sample indices, sized from the measured rate
 //! so that one launch takes about `launch_target` (by default 400 ms on a GPU, 100 ms on a CPU:
 //! [`default_launch_target`]): long enough to keep a GPU busy, short enough that a display
-//! GPU's watchdog (about 2 s) never fires. Every pass ends with all
-//! pixels at the same sample count, and the kernel adds samples one at a time onto the running
-//! sums, so the image does not depend on how the work was split.
+//! GPU's watchdog (about 2 s) never fires. Every pass ends with all pixels at the same sample
+//! count, and the kernel adds samples one at a time onto the running sums, so the image does
+//! not depend on how the work was split.
 
 pub mod bench;
 pub mod clock;
@@ -422,8 +422,8 @@ pub struct Renderer<'d> {
 /// against 3.70, without 0.64 against 0.80; case1 without, 2.74 against 3.30; textures with,
 /// 2.27 against 2.67; meshes with, 2.46 against 2.69; case2 0.49 against 0.51. Launches sized
 /// by the slowest of the pass before stay well within a display watchdog's 2 s. A CPU keeps 100
-/// ms: its progress and its trial's launches are timed at that grain, and PoCL idles no lanes
-/// that way.
+/// ms, not measured at 400: a CPU's trial sizes its launches by the target too
+/// (`render_rows`), and its timing was tuned at 100.
 pub fn default_launch_target(kind: &str) -> Duration {
     Duration::from_millis(if kind == "CPU" { 100 } else { 400 })
 }
