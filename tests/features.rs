@@ -206,6 +206,7 @@ fn only_nvidia_gpus_get_the_warp_vote() {
         opencl_c_version: String::new(),
         driver_version: String::new(),
         is_gpu,
+        watchdog: None,
     };
     assert!(Features::regeneration_on(&description("NVIDIA CUDA", true)));
     for (platform, is_gpu) in [

@@ -58,6 +58,16 @@ fn an_absurd_time_limit_is_an_error() {
 }
 
 #[test]
+fn an_absurd_launch_length_is_an_error() {
+    for ms in ["0", "-5", "NaN", "inf", "1e9"] {
+        refused(
+            &clpt(&["render", &format!("--launch-ms={ms}"), "-o", "x.pfm"]),
+            "--launch-ms must be between 1 and 60000",
+        );
+    }
+}
+
+#[test]
 fn an_unreachable_target_error_alone_still_ends() {
     let dir = scratch("target");
     let out = dir.join("x.pfm");

@@ -14,6 +14,9 @@
 #             other trial shares, carried in device-run/) at the defaults against each short
 #             scene's best fixed setting (or $TRIAL_SCENES: FILE:SPP:LIGHT:RR ...), $REPS rounds
 #             (default 3), into $OUT/trials.csv (or $TRIALS_CSV)
+# launches    each showcase and the GPU-heavy scenes with light sampling on and off (roulette 0.3)
+#             at $LAUNCHES ms launches (default 400 1000 1600; --launch-ms), and meshes' trial
+#             (-v) at each, into $OUT/launches.csv (about 4 minutes on the H200)
 # mitsuba     tools/mitsuba-compare.py --cuda (needs .whl/ from tools/pack-mitsuba-wheels carried)
 # bench       cold builds and rates of each scene's program and of all features; the goblet alone
 # Results under $OUT, one file a stage (at most 8 files come back).
@@ -137,6 +140,25 @@ trials() {
         tail -1 /tmp/t.csv | sed "s|\$|,$(basename $bin),$round|" | tee -a $csv
       done
     done
+  done
+}
+
+launches() {
+  export CLPT_DEVICE=NVIDIA
+  local csv=$OUT/launches.csv
+  echo "launch_ms,scene,setting,spp,seconds,relmse_estimate,relmse_x_seconds,estimator" > $csv
+  for ms in ${LAUNCHES:-400 1000 1600}; do
+    for entry in $seed/case1_dof_mesh.txt:160:off $seed/case1_dof_mesh.txt:48:on \
+        $seed/case0_texture.txt:200:off $seed/case0_texture.txt:64:on $seed/case3_wineglass.txt:250:off \
+        scenes/meshes.txt:1024:off scenes/meshes.txt:512:on scenes/textures.txt:2048:off \
+        scenes/textures.txt:512:on scenes/goblet.txt:128:on; do
+      IFS=: read -r file spp light <<< "$entry"
+      SETTINGS=$light:0.3 EXTRA="--launch-ms $ms" tools/estimators.sh ./clpt /tmp/l.csv $file:$spp > /dev/null
+      tail -1 /tmp/l.csv | sed "s|^|$ms,|" | tee -a $csv
+    done
+    echo "# meshes at defaults, --launch-ms $ms"
+    ./clpt render scenes/meshes.txt --spp 2048 --seed 1 -v --launch-ms $ms -o /tmp/l.pfm 2>&1 |
+      grep -E "estimator:|trial:|spp in|passes"
   done
 }
 

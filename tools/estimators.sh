@@ -8,7 +8,8 @@
 # CLPT is the binary; the device comes from $CLPT_DEVICE. SETTINGS="auto off:0.3 ..." runs only
 # those settings; SEED=N renders with seed N (default 1). With BEFORE=OLD_CLPT set, each scene
 # also gets a row `before-off:1`: OLD_CLPT with light sampling off and roulette below 1 (the
-# `--no-nee` that the issue measures against, rendered by the binary of that time).
+# `--no-nee` that the issue measures against, rendered by the binary of that time). EXTRA="..."
+# adds flags to every run of CLPT (for example EXTRA="--launch-ms 1600").
 set -euo pipefail
 clpt=$1 out=$2
 shift 2
@@ -29,7 +30,8 @@ for entry in "$@"; do
     else
       flags=(--light-sampling "${setting%:*}" --rr-threshold "${setting#*:}")
     fi
-    "$bin" render "$file" "${size[@]}" --spp "$spp" --seed "${SEED:-1}" -q "${flags[@]}" \
+    [ "$bin" = "$clpt" ] && read -r -a extra <<< "${EXTRA:-}" || extra=()
+    "$bin" render "$file" "${size[@]}" --spp "$spp" --seed "${SEED:-1}" -q "${flags[@]}" "${extra[@]}" \
       -o "$tmp/image.pfm" --report "$tmp/report.csv" 2> "$tmp/log" || { cat "$tmp/log"; exit 1; }
     estimator=$(sed -n 's/^# estimator: //p' "$tmp/report.csv" | tr ',' ';')
     last=$(tail -1 "$tmp/report.csv")

@@ -51,13 +51,17 @@ pub struct DeviceDescription {
     pub opencl_c_version: String,
     pub driver_version: String,
     pub is_gpu: bool,
+    /// Whether the driver stops a kernel that runs too long (a display's watchdog): NVIDIA's
+    /// CL_DEVICE_KERNEL_EXEC_TIMEOUT_NV (cl_nv_device_attribute_query); `None` where the
+    /// device does not say.
+    pub watchdog: Option<bool>,
 }
 
 impl fmt::Display for DeviceDescription {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "[{}] {} ({}, {}): {} compute units, {:.1} GiB, {}, driver {}",
+            "[{}] {} ({}, {}): {} compute units, {:.1} GiB, {}, driver {}{}",
             self.index,
             self.name,
             self.kind,
@@ -65,7 +69,12 @@ impl fmt::Display for DeviceDescription {
             self.compute_units,
             self.global_mem_bytes as f64 / (1u64 << 30) as f64,
             self.opencl_c_version,
-            self.driver_version
+            self.driver_version,
+            match self.watchdog {
+                Some(true) => ", kernel watchdog",
+                Some(false) => ", no kernel watchdog",
+                None => "",
+            }
         )
     }
 }
@@ -120,7 +129,22 @@ fn describe(index: usize, platform: &ocl::Platform, device: &ocl::Device) -> Dev
         opencl_c_version: info_string(device, Info::OpenclCVersion),
         driver_version: info_string(device, Info::DriverVersion),
         is_gpu,
+        watchdog: watchdog(device),
     }
+}
+
+/// CL_DEVICE_KERNEL_EXEC_TIMEOUT_NV of cl_nv_device_attribute_query ([`DeviceDescription::watchdog`]).
+const KERNEL_EXEC_TIMEOUT_NV: u32 = 0x4005;
+
+fn watchdog(device: &ocl::Device) -> Option<bool> {
+    let extensions = info_string(device, Info::Extensions);
+    if !extensions.contains("cl_nv_device_attribute_query") {
+        return None;
+    }
+    // A cl_bool: 4 bytes.
+    let raw = ocl::core::get_device_info_raw(device.as_core(), KERNEL_EXEC_TIMEOUT_NV).ok()?;
+    let bytes: [u8; 4] = raw.get(..4)?.try_into().ok()?;
+    Some(u32::from_ne_bytes(bytes) != 0)
 }
 
 /// Every device of every platform, in the order `--device` indexes them.
@@ -268,6 +292,7 @@ mod tests {
             opencl_c_version: String::new(),
             driver_version: String::new(),
             is_gpu: false,
+            watchdog: None,
         };
         for yes in [
             "xeon",
