@@ -31,15 +31,16 @@ inline float2 concentric_disk(float2 u) {
     if (p.x == 0.0f && p.y == 0.0f) {
         return (float2)(0.0f, 0.0f);
     }
+    /* The angle in turns: an eighth of a turn times the ratio of the two coordinates. */
     float r, phi;
     if (fabs(p.x) > fabs(p.y)) {
         r = p.x;
-        phi = M_PI_4_F * (p.y / p.x);
+        phi = 0.125f * (p.y / p.x);
     } else {
         r = p.y;
-        phi = M_PI_2_F - M_PI_4_F * (p.x / p.y);
+        phi = 0.25f - 0.125f * (p.x / p.y);
     }
-    return r * (float2)(cos(phi), sin(phi));
+    return r * turn(phi);
 }
 #endif
 

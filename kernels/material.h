@@ -27,11 +27,10 @@
 
 /* Cosine-weighted direction about unit n (Malley's method: a uniform disk point lifted). */
 inline float3 sample_cosine_hemisphere(float3 n, float2 u) {
-    const float phi = 2.0f * M_PI_F * u.x;
-    const float r = sqrt(u.y);
+    const float2 c = sqrt(u.y) * turn(u.x);
     float3 t, b;
     orthonormal_basis(n, &t, &b);
-    return normalize(t * (r * cos(phi)) + b * (r * sin(phi)) + n * sqrt(fmax(0.0f, 1.0f - u.y)));
+    return normalize(t * c.x + b * c.y + n * sqrt(fmax(0.0f, 1.0f - u.y)));
 }
 
 inline float3 reflect_about(float3 wo, float3 n) {

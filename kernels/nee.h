@@ -327,10 +327,10 @@ inline bool light_sample(__global const Light* l, float3 p, float2 u, float3* wi
         const float r = l->radius;
         const float below = l->cap_height * u.x;
         const float rho = sqrt(fmax(0.0f, below * (2.0f * r - below)));
-        const float phi = 2.0f * M_PI_F * u.y;
+        const float2 around = turn(u.y);
         float3 t, b;
         orthonormal_basis(axis, &t, &b);
-        const float3 offset = axis * (r - below) + (t * cos(phi) + b * sin(phi)) * rho;
+        const float3 offset = axis * (r - below) + (t * around.x + b * around.y) * rho;
         *q = c + offset;
         *q_error = sphere_sample_error(*q, offset);
         *q_normal = offset / r;
@@ -353,11 +353,11 @@ inline bool light_sample(__global const Light* l, float3 p, float2 u, float3* wi
         const float v = u.x * cone_one_minus_cos(r2, d2); /* 1 - cos theta */
         const float cos_t = 1.0f - v;
         const float sin_t = sqrt(fmax(0.0f, v * (2.0f - v)));
-        const float phi = 2.0f * M_PI_F * u.y;
+        const float2 around = sin_t * turn(u.y);
         const float3 w = pc / sqrt(d2);
         float3 t, b;
         orthonormal_basis(w, &t, &b);
-        *wi = normalize(t * (sin_t * cos(phi)) + b * (sin_t * sin(phi)) + w * cos_t);
+        *wi = normalize(t * around.x + b * around.y + w * cos_t);
         /* The nearer point where wi meets the sphere, from the centre's distance to the ray
          * (no cancellation for tiny spheres far away); a direction that rounding put just past
          * the rim takes the tangent point. */
