@@ -183,33 +183,58 @@ struct RayCounts {
 /// at a random ball, from origins spread over `origins`; every 7th ray is cut short.
 fn check_rays(balls: &[Ball], bvh: &Bvh, origins: &Aabb, seed: u64) -> RayCounts {
     let mut rng = SmallRng::seed_from_u64(seed);
-    let (mut hits, mut endless_misses, mut calls) = (0usize, 0usize, 0usize);
-    for ray in 0..RAYS {
-        let o = random_in(&mut rng, origins);
-        let d = if ray % 2 == 0 {
-            common::random_unit(&mut rng)
-        } else {
-            let target = balls[rng.random_range(0..balls.len())];
-            let aim = random_in(&mut rng, &target.aabb()) - o;
-            if aim.length_squared() > 0.0 {
-                aim.normalize()
-            } else {
+    let rays: Vec<(DVec3, DVec3, f64)> = (0..RAYS)
+        .map(|ray| {
+            let o = random_in(&mut rng, origins);
+            let d = if ray % 2 == 0 {
                 common::random_unit(&mut rng)
-            }
-        };
-        let t_max = if ray % 7 == 0 {
-            rng.random_range(0.0..4.0)
-        } else {
-            f64::INFINITY
-        };
-
-        let mut expected: Option<(f64, u32)> = None;
-        for (i, ball) in (0u32..).zip(balls) {
-            let limit = expected.map_or(t_max, |(t, _)| t);
-            if let Some(t) = ball.hit(o, d, limit) {
-                expected = Some((t, i));
-            }
-        }
+            } else {
+                let target = balls[rng.random_range(0..balls.len())];
+                let aim = random_in(&mut rng, &target.aabb()) - o;
+                if aim.length_squared() > 0.0 {
+                    aim.normalize()
+                } else {
+                    common::random_unit(&mut rng)
+                }
+            };
+            let t_max = if ray % 7 == 0 {
+                rng.random_range(0.0..4.0)
+            } else {
+                f64::INFINITY
+            };
+            (o, d, t_max)
+        })
+        .collect();
+    // Brute force, every ball in turn, spread over the cores (a 100,000-ball scene's takes
+    // 10^10 tests).
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let brute: Vec<Option<(f64, u32)>> = std::thread::scope(|scope| {
+        let workers: Vec<_> = rays
+            .chunks(RAYS.div_ceil(threads))
+            .map(|part| {
+                scope.spawn(move || {
+                    part.iter()
+                        .map(|&(o, d, t_max)| {
+                            let mut expected: Option<(f64, u32)> = None;
+                            for (i, ball) in (0u32..).zip(balls) {
+                                let limit = expected.map_or(t_max, |(t, _)| t);
+                                if let Some(t) = ball.hit(o, d, limit) {
+                                    expected = Some((t, i));
+                                }
+                            }
+                            expected
+                        })
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .flat_map(|w| w.join().expect("brute force worker"))
+            .collect()
+    });
+    let (mut hits, mut endless_misses, mut calls) = (0usize, 0usize, 0usize);
+    for (ray, (&(o, d, t_max), &expected)) in rays.iter().zip(&brute).enumerate() {
         let got = bvh.intersect(o, d, t_max, |object, limit| {
             calls += 1;
             assert!(

@@ -201,7 +201,9 @@ pub fn triangle_vertices(
 
 /// Möller–Trumbore in f64: the parameter t of the point where o + t d crosses triangle `v`, if
 /// t_min < t < t_max. Both faces count; a ray in the triangle's plane (and a zero-area
-/// triangle) has det = 0 and misses.
+/// triangle) has det = 0 and misses. Inlined across crates: the tests' brute force calls it
+/// billions of times.
+#[inline]
 pub fn intersect_triangle(
     o: DVec3,
     d: DVec3,
