@@ -221,3 +221,27 @@ fn the_film_file_holds_the_render_bit_for_bit() {
     assert!(err.contains("film file"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// On a CPU device a render given neither `--spp`, `--time` nor `--target-error` stops after
+/// 12 s (the README's first render took 75 s on 2 cores) and says so as it starts; a tiny one
+/// still renders its 64 samples, and `--spp` alone lifts the limit. On a GPU: nothing to say.
+#[test]
+fn a_cpu_render_without_bounds_says_it_stops_after_12_s() {
+    let dir = scratch("cpu-default");
+    let out = dir.join("x.pfm");
+    let on_cpu = clpt::device::select(None)
+        .map(|d| d.description.kind == "CPU")
+        .unwrap_or(false);
+    let note = "on a CPU device a render stops after 12 s unless --spp or --time says otherwise";
+    let args = ["render", "--width", "8", "--height", "6", "-o"];
+    let unbounded = clpt(&[&args[..], &[out.to_str().unwrap()]].concat());
+    let stderr = String::from_utf8_lossy(&unbounded.stderr);
+    assert!(unbounded.status.success(), "{stderr}");
+    assert_eq!(stderr.contains(note), on_cpu, "{stderr}");
+    assert!(stderr.contains("64 spp in"), "{stderr}");
+    let counted = clpt(&[&args[..], &[out.to_str().unwrap(), "--spp", "16"]].concat());
+    let stderr = String::from_utf8_lossy(&counted.stderr);
+    assert!(counted.status.success(), "{stderr}");
+    assert!(!stderr.contains(note), "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
