@@ -31,7 +31,7 @@ mod common;
 
 use clpt::render::metrics::LinearImage;
 use clpt::render::strategy::LightSampling;
-use clpt::render::{PassReport, RenderOptions};
+use clpt::render::{PassReport, RenderOptions, settled};
 use clpt::scene::Scene;
 use std::sync::Arc;
 
@@ -235,7 +235,11 @@ fn target_error_stops_when_the_error_is_reached() {
         let (_, stats) = common::render(&scene, options);
         let last = stats.report.last().expect("a report row");
         let measured = last.measured.expect("measured").relmse - reference_row.estimate.relmse;
-        let stopped_on_target = last.estimate.relmse <= target;
+        // The render's own rule (render/mod.rs `settled`): an estimate below the target when
+        // the time ran out, not yet settled, is not a stop on the target. (Counted as one, a
+        // pure path tracing render slowed by the tests beside it failed this test at 229 spp:
+        // estimated relMSE 9.9e-2 as the 2 s ended.)
+        let stopped_on_target = last.estimate.relmse <= target && settled(&stats.report);
         eprintln!(
             "NEE {nee}: {} spp, estimated relMSE {:.3e}, measured {measured:.3e} (target {target:e})",
             last.spp, last.estimate.relmse
