@@ -159,14 +159,18 @@ fn device_hits_match_the_f64_reference() {
                 })
                 .collect();
             let got = common::probe_hits(&device, &packed, &rays);
-            for (r, g) in rays.iter().zip(&got) {
+            // Each device answer against the f64 reference, spread over the cores (the
+            // reference's root isolation was most of the test's time): (compared, missed,
+            // false hits, self-hits) of one ray.
+            let check = |r: &[f32; 9], g: &[f32; 16]| -> [usize; 4] {
+                let mut counts = [0usize; 4];
                 let o = DVec3::new(r[0] as f64, r[1] as f64, r[2] as f64);
                 let d = DVec3::new(r[3] as f64, r[4] as f64, r[5] as f64);
                 let hits = curve::intersect_reference(&curve, o, d, 0.0, f64::INFINITY);
                 let tol = 1e-4 * (size + o.length());
                 if g[1] == HIT_REVSURFACE {
                     let t = g[0] as f64;
-                    compared += 1;
+                    counts[0] += 1;
                     // The ray spawned from the hit towards w must not find the surface it
                     // leaves: a hit closer than 1e-4 of the size with no root there is a
                     // self-hit.
@@ -181,27 +185,60 @@ fn device_hits_match_the_f64_reference() {
                         && curve::intersect_reference(&curve, p, w, 1e-9 * size, 2e-4 * size)
                             .is_empty()
                     {
-                        self_hits += 1;
+                        counts[3] += 1;
                     }
                     // A device hit must lie on the surface (within `tol` of it), and no root
                     // may lie clearly before it unless the ray grazes there.
                     if !hits.iter().any(|h| (h.t - t).abs() <= tol)
                         && distance_to_surface(&curve, o + d * t) > tol
                     {
-                        false_hits += 1;
+                        counts[2] += 1;
                     }
                     if let Some(first) = hits.first()
                         && first.t < t - tol
                         && first.normal.dot(d).abs() > 1e-2
                     {
-                        missed += 1;
+                        counts[1] += 1;
                     }
                 } else if let Some(first) = hits.first()
                     && first.normal.dot(d).abs() > 1e-2
                 {
-                    missed += 1;
+                    counts[1] += 1;
                 }
-            }
+                counts
+            };
+            let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+            let chunk = rays.len().div_ceil(threads);
+            let counts = std::thread::scope(|scope| {
+                let workers: Vec<_> = rays
+                    .chunks(chunk)
+                    .zip(got.chunks(chunk))
+                    .map(|(rs, gs)| {
+                        let check = &check;
+                        scope.spawn(move || {
+                            rs.iter().zip(gs).fold([0usize; 4], |mut sum, (r, g)| {
+                                for (s, c) in sum.iter_mut().zip(check(r, g)) {
+                                    *s += c;
+                                }
+                                sum
+                            })
+                        })
+                    })
+                    .collect();
+                workers
+                    .into_iter()
+                    .map(|w| w.join().expect("reference worker"))
+                    .fold([0usize; 4], |mut sum, c| {
+                        for (s, c) in sum.iter_mut().zip(c) {
+                            *s += c;
+                        }
+                        sum
+                    })
+            });
+            compared += counts[0];
+            missed += counts[1];
+            false_hits += counts[2];
+            self_hits += counts[3];
         }
         eprintln!(
             "{name}: {compared} device hits, {missed} missed, {false_hits} false, {self_hits} self-hits"
