@@ -207,31 +207,15 @@ fn check_rays(balls: &[Ball], bvh: &Bvh, origins: &Aabb, seed: u64) -> RayCounts
         .collect();
     // Brute force, every ball in turn, spread over the cores (a 100,000-ball scene's takes
     // 10^10 tests).
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let brute: Vec<Option<(f64, u32)>> = std::thread::scope(|scope| {
-        let workers: Vec<_> = rays
-            .chunks(RAYS.div_ceil(threads))
-            .map(|part| {
-                scope.spawn(move || {
-                    part.iter()
-                        .map(|&(o, d, t_max)| {
-                            let mut expected: Option<(f64, u32)> = None;
-                            for (i, ball) in (0u32..).zip(balls) {
-                                let limit = expected.map_or(t_max, |(t, _)| t);
-                                if let Some(t) = ball.hit(o, d, limit) {
-                                    expected = Some((t, i));
-                                }
-                            }
-                            expected
-                        })
-                        .collect::<Vec<_>>()
-                })
-            })
-            .collect();
-        workers
-            .into_iter()
-            .flat_map(|w| w.join().expect("brute force worker"))
-            .collect()
+    let brute = common::on_all_cores(&rays, |&(o, d, t_max)| {
+        let mut expected: Option<(f64, u32)> = None;
+        for (i, ball) in (0u32..).zip(balls) {
+            let limit = expected.map_or(t_max, |(t, _)| t);
+            if let Some(t) = ball.hit(o, d, limit) {
+                expected = Some((t, i));
+            }
+        }
+        expected
     });
     let (mut hits, mut endless_misses, mut calls) = (0usize, 0usize, 0usize);
     for (ray, (&(o, d, t_max), &expected)) in rays.iter().zip(&brute).enumerate() {

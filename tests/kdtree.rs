@@ -342,22 +342,6 @@ fn rays(b: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
-/// Runs `f` on every ray, spread over the cores.
-fn on_all_cores<T: Send>(rays: &[Ray], f: impl Fn(&Ray) -> T + Sync) -> Vec<T> {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let chunk = rays.len().div_ceil(threads).max(1);
-    std::thread::scope(|s| {
-        let handles: Vec<_> = rays
-            .chunks(chunk)
-            .map(|part| s.spawn(|| part.iter().map(&f).collect::<Vec<T>>()))
-            .collect();
-        handles
-            .into_iter()
-            .flat_map(|h| h.join().expect("worker"))
-            .collect()
-    })
-}
-
 /// Counts the rays on which two nearest-hit answers disagree: a different t (beyond 1e-9
 /// relative), or a different triangle that is not hit at the same t (a tie on a shared edge).
 fn compare(
@@ -397,11 +381,11 @@ fn compare(
 /// The tree's nearest hits against brute force on `n` rays; returns the number of hits.
 fn check_against_brute_force(mesh: &Mesh, tree: &KdTree, n: usize, seed: u64) -> usize {
     let rays = rays(&mesh.valid_bounds(), n, seed);
-    let got = on_all_cores(&rays, |r| {
+    let got = common::on_all_cores(&rays, |r| {
         tree.intersect(&mesh.positions, &mesh.triangles, r.0, r.1, r.2, r.3)
     });
     let triangles = mesh.all_vertices();
-    let want = on_all_cores(&rays, |r| brute_force(&triangles, r.0, r.1, r.2, r.3));
+    let want = common::on_all_cores(&rays, |r| brute_force(&triangles, r.0, r.1, r.2, r.3));
     let bad = compare(mesh, "kd-tree and brute force", &rays, &got, &want);
     let hits = want.iter().filter(|h| h.is_some()).count();
     println!(
@@ -768,7 +752,7 @@ fn dragon_matches_brute_force_and_median_tree() {
     let rays = rays(&mesh.valid_bounds(), 100_000, 9);
     let time = |t: &KdTree| {
         let start = Instant::now();
-        let hits = on_all_cores(&rays, |r| {
+        let hits = common::on_all_cores(&rays, |r| {
             t.intersect(&mesh.positions, &mesh.triangles, r.0, r.1, r.2, r.3)
         });
         (hits, start.elapsed().as_secs_f64())
@@ -883,7 +867,7 @@ fn crossing_triangles_get_small_leaves() {
     let rays = rays(&mesh.valid_bounds(), 2000, 26);
     let time = |f: &(dyn Fn(&Ray) -> Option<(f64, u32)> + Sync)| {
         let start = Instant::now();
-        let hits = on_all_cores(&rays, f);
+        let hits = common::on_all_cores(&rays, f);
         (hits, start.elapsed().as_secs_f64())
     };
     let (got, tree_seconds) =

@@ -207,34 +207,15 @@ fn device_hits_match_the_f64_reference() {
                 }
                 counts
             };
-            let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-            let chunk = rays.len().div_ceil(threads);
-            let counts = std::thread::scope(|scope| {
-                let workers: Vec<_> = rays
-                    .chunks(chunk)
-                    .zip(got.chunks(chunk))
-                    .map(|(rs, gs)| {
-                        let check = &check;
-                        scope.spawn(move || {
-                            rs.iter().zip(gs).fold([0usize; 4], |mut sum, (r, g)| {
-                                for (s, c) in sum.iter_mut().zip(check(r, g)) {
-                                    *s += c;
-                                }
-                                sum
-                            })
-                        })
-                    })
-                    .collect();
-                workers
-                    .into_iter()
-                    .map(|w| w.join().expect("reference worker"))
-                    .fold([0usize; 4], |mut sum, c| {
-                        for (s, c) in sum.iter_mut().zip(c) {
-                            *s += c;
-                        }
-                        sum
-                    })
-            });
+            let pairs: Vec<_> = rays.iter().zip(&got).collect();
+            let counts = common::on_all_cores(&pairs, |&(r, g)| check(r, g))
+                .into_iter()
+                .fold([0usize; 4], |mut sum, c| {
+                    for (s, c) in sum.iter_mut().zip(c) {
+                        *s += c;
+                    }
+                    sum
+                });
             compared += counts[0];
             missed += counts[1];
             false_hits += counts[2];

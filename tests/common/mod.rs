@@ -5,6 +5,23 @@ pub mod cli;
 
 use std::path::PathBuf;
 
+/// `f` of every item, in order, the items spread over the cores in one chunk a core: the
+/// tests' brute-force oracles and f64 references (tests/kdtree.rs, bvh.rs, revsurface.rs).
+pub fn on_all_cores<I: Sync, T: Send>(items: &[I], f: impl Fn(&I) -> T + Sync) -> Vec<T> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let chunk = items.len().div_ceil(threads).max(1);
+    std::thread::scope(|s| {
+        let handles: Vec<_> = items
+            .chunks(chunk)
+            .map(|part| s.spawn(|| part.iter().map(&f).collect::<Vec<T>>()))
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().expect("worker"))
+            .collect()
+    })
+}
+
 /// The original project's data (`../shared/seed` beside the checkout, or `$CLPT_SEED_DIR`),
 /// or `None` with a message on stderr when it is absent, so tests that need it skip visibly.
 pub fn seed_dir(test: &str) -> Option<PathBuf> {
