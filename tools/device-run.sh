@@ -17,7 +17,7 @@
 # launches    each showcase and the GPU-heavy scenes with light sampling on and off (roulette 0.3)
 #             at $LAUNCHES ms launches (default 400 1000 1600; --launch-ms), and meshes' trial
 #             (-v) at each, into $OUT/launches.csv (about 4 minutes on the H200)
-# mitsuba     tools/mitsuba-compare.py --cuda (needs .whl/ from tools/pack-mitsuba-wheels carried)
+# mitsuba     tools/mitsuba-compare.py --cuda on the room and the dragon room (needs .whl/ from tools/pack-mitsuba-wheels carried)
 # bench       cold builds and rates of each scene's program and of all features; the goblet alone
 # Results under $OUT, one file a stage (at most 8 files come back).
 echo libnvidia-opencl.so.1 > /etc/OpenCL/vendors/nvidia.icd
@@ -166,8 +166,11 @@ mitsuba() {
   python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
     --target /tmp/site "$repo"/.whl/*.whl || return
   export PYTHONPATH=/tmp/site PYTHONUNBUFFERED=1 CLPT_DEVICE=NVIDIA
-  python3 "$repo"/tools/mitsuba-compare.py --cuda --clpt ./clpt --width 1280 --height 960 --seconds 2 \
-    --reference-factor 8 --mitsuba-samplers independent,ldsampler,multijitter,orthogonal --out /tmp/cmp
+  for scene in room dragon_room; do
+    python3 "$repo"/tools/mitsuba-compare.py --cuda --clpt ./clpt --scene $scene --width 1280 --height 960 \
+      --seconds 2 --reference-factor 8 --mitsuba-samplers independent,ldsampler,multijitter,orthogonal \
+      --out /tmp/cmp-$scene
+  done
 }
 
 bench() {

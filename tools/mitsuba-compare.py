@@ -1,9 +1,12 @@
 #!/usr/bin/env python3
-"""clpt and Mitsuba 3 side by side at equal time on scenes/ceiling_room.txt, for BENCHMARKS.md.
+"""clpt and Mitsuba 3 side by side at equal time on a room, for BENCHMARKS.md.
 
-The room is written out for Mitsuba here (rectangles for the six walls, the ceiling an area
-emitter with a black BSDF, three diffuse spheres, the same camera: the original's `angle` a
-gives a vertical field of view of 2 atan(a / 2)). Each renderer renders the room for about
+--scene room: scenes/ceiling_room.txt; --scene dragon_room: tools/dragon_room.txt, the same room
+with the Stanford dragon (100k triangles, the original's data: --seed-dir, default
+$CLPT_SEED_DIR or ../shared/seed) in place of its green ball. Each is written out for Mitsuba
+here (rectangles for the six walls, the ceiling an area emitter with a black BSDF, diffuse
+spheres, the dragon an `obj` shape with face normals as clpt shades a mesh without normals, the
+same camera: the original's `angle` a gives a vertical field of view of 2 atan(a / 2)). Each renderer renders the room for about
 --seconds, and a reference of --reference-factor times its samples with another seed; the
 error of each render is measured against its own renderer's reference (`clpt compare`), so
 small differences between the two renderers' pictures (pixel filters, the 2x2 sub-pixels) do
@@ -18,6 +21,7 @@ too generous to both renderers alike.
 
     pip install mitsuba   # the LLVM variant needs libLLVM >= 16 (Debian: libllvm19)
     python3 tools/mitsuba-compare.py --clpt target/release/clpt --seconds 10 --out /tmp/cmp
+    python3 tools/mitsuba-compare.py --scene dragon_room --seconds 10 --out /tmp/cmp-dragon
 """
 import argparse
 import math
@@ -45,9 +49,10 @@ def diffuse(rgb):
     return {"type": "diffuse", "reflectance": {"type": "rgb", "value": rgb}}
 
 
-def ceiling_room(mi, width, height, sampler="independent"):
-    """scenes/ceiling_room.txt for Mitsuba."""
-    grey, red, blue, green = [0.75] * 3, [0.75, 0.25, 0.25], [0.25, 0.25, 0.75], [0.25, 0.75, 0.25]
+def room(mi, width, height, sampler, contents):
+    """The ceiling-lit room of scenes/ceiling_room.txt for Mitsuba, `contents` (a dict of named
+    shapes) on its floor."""
+    grey, red, blue = GREY, [0.75, 0.25, 0.25], [0.25, 0.25, 0.75]
     a = math.radians(30.0)  # the file's `angle`
     fov = math.degrees(2.0 * math.atan(a / 2.0))
     scene = {
@@ -79,27 +84,68 @@ def ceiling_room(mi, width, height, sampler="independent"):
         "floor": rectangle(mi, [0, 0, 100], [0, 1, 0], [0, 0, 1], 100, 200, diffuse(grey)),
         "back": rectangle(mi, [0, 80, -100], [0, 0, 1], [0, 1, 0], 100, 80, diffuse(grey)),
         "front": rectangle(mi, [0, 80, 300], [0, 0, -1], [0, 1, 0], 100, 80, diffuse(grey)),
-        "ball1": {"type": "sphere", "center": [-50, 25, -40], "radius": 25, "bsdf": diffuse(grey)},
-        "ball2": {"type": "sphere", "center": [50, 25, 0], "radius": 25, "bsdf": diffuse(grey)},
-        "ball3": {"type": "sphere", "center": [0, 40, -70], "radius": 40, "bsdf": diffuse(green)},
     }
+    scene.update(contents)
     return mi.load_dict(scene)
 
 
+GREY, GREEN = [0.75] * 3, [0.25, 0.75, 0.25]
+
+
+def ball(center, radius, rgb):
+    return {"type": "sphere", "center": center, "radius": radius, "bsdf": diffuse(rgb)}
+
+
+def ceiling_room(mi, width, height, sampler, seed_dir):
+    """scenes/ceiling_room.txt: three balls."""
+    return room(mi, width, height, sampler, {
+        "ball1": ball([-50, 25, -40], 25, GREY),
+        "ball2": ball([50, 25, 0], 25, GREY),
+        "ball3": ball([0, 40, -70], 40, GREEN),
+    })
+
+
+def dragon_room(mi, width, height, sampler, seed_dir):
+    """tools/dragon_room.txt: two balls and the dragon, `Translate 0 35.27 -55 UniformScale 50`.
+    Two-sided as clpt's diffuse surfaces are (Mitsuba's `diffuse` is black from behind)."""
+    to_world = mi.ScalarTransform4f().translate([0, 35.27, -55]) @ mi.ScalarTransform4f().scale(50)
+    return room(mi, width, height, sampler, {
+        "ball1": ball([-55, 20, 0], 20, GREY),
+        "ball2": ball([55, 20, 20], 20, GREY),
+        "dragon": {
+            "type": "obj",
+            "filename": os.path.join(seed_dir, "mesh", "dragon_100k.obj"),
+            "face_normals": True,
+            "to_world": to_world,
+            "bsdf": {"type": "twosided", "bsdf": diffuse(GREEN)},
+        },
+    })
+
+
+# --scene: (clpt's scene file, relative to the checkout; the same scene for Mitsuba).
+SCENES = {
+    "room": ("scenes/ceiling_room.txt", ceiling_room),
+    "dragon_room": ("tools/dragon_room.txt", dragon_room),
+}
+
+
 def mitsuba_render(mi, dr, scene, spp, seed, path):
+    """Seconds, and the samples a pixel rendered: the quasi-random samplers round the count asked
+    for (`ldsampler` to a power of 4, `orthogonal` to a prime's square, `multijitter` up)."""
     start = time.perf_counter()
     image = mi.render(scene, spp=spp, seed=seed)
     dr.eval(image)
     dr.sync_thread()
     seconds = time.perf_counter() - start
     mi.util.write_bitmap(path, image, write_async=False)
-    return seconds
+    return seconds, scene.sensors()[0].sampler().sample_count()
 
 
-def clpt_render(clpt, scene, args, path):
+def clpt_render(clpt, scene, args, path, cwd):
+    """Renders in `cwd`, where seed/ names the original's data (the scenes' meshes)."""
     out = subprocess.run(
-        [clpt, "render", scene, "-q", "-o", path] + args,
-        check=True, capture_output=True, text=True,
+        [clpt, "render", scene, "-q", "-o", os.path.abspath(path)] + args,
+        check=True, capture_output=True, text=True, cwd=cwd,
     ).stderr
     m = re.search(r"(\d+) spp in ([0-9.]+) s", out)
     return int(m.group(1)), float(m.group(2)), out
@@ -115,7 +161,9 @@ def relmse(clpt, image, reference):
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--clpt", default="target/release/clpt")
-    p.add_argument("--scene", default="scenes/ceiling_room.txt")
+    p.add_argument("--scene", choices=sorted(SCENES), default="room")
+    p.add_argument("--seed-dir", default=os.environ.get("CLPT_SEED_DIR", "../shared/seed"),
+                   help="the original's data (for the dragon)")
     p.add_argument("--seconds", type=float, default=10.0)
     p.add_argument("--width", type=int, default=320)
     p.add_argument("--height", type=int, default=240)
@@ -133,6 +181,16 @@ def main():
     mi.set_variant("cuda_ad_rgb" if args.cuda else "llvm_ad_rgb")
     width, height = args.width, args.height
     out = lambda name: os.path.join(args.out, name)
+    clpt = os.path.abspath(args.clpt)
+    clpt_scene, mitsuba_scene = SCENES[args.scene]
+    clpt_scene = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", clpt_scene)
+    seed_dir = os.path.abspath(args.seed_dir)
+    if not os.path.isdir(os.path.join(seed_dir, "mesh")):
+        p.error(f"no mesh/ in --seed-dir {seed_dir}")
+    link = out("seed")
+    if os.path.islink(link):
+        os.remove(link)
+    os.symlink(seed_dir, link)
     extra = args.clpt_args.split()
     k = args.reference_factor
 
@@ -142,43 +200,43 @@ def main():
     # compilation (clpt's figures hold no program build either).
     mitsuba_rows = []
     for sampler in args.mitsuba_samplers.split(","):
-        scene = ceiling_room(mi, width, height, sampler)
+        scene = mitsuba_scene(mi, width, height, sampler, seed_dir)
         spp = 1
         while True:
             mitsuba_render(mi, dr, scene, spp, 1, out("warm.exr"))
-            t = mitsuba_render(mi, dr, scene, spp, 1, out("warm.exr"))
+            t, spp = mitsuba_render(mi, dr, scene, spp, 1, out("warm.exr"))
             if t >= args.seconds / 4 or spp >= 1 << 16:
                 break
             spp = min(spp * 16, max(spp * 2, int(spp * args.seconds / 4 / max(t, 1e-4))))
         m_spp = max(1, int(spp * args.seconds / t))
         mitsuba_render(mi, dr, scene, m_spp, 1, out("warm.exr"))
         image, ref = f"mitsuba-{sampler}.exr", f"mitsuba-{sampler}-ref.exr"
-        m_seconds = mitsuba_render(mi, dr, scene, m_spp, 1, out(image))  # compiled above
-        mitsuba_render(mi, dr, scene, m_spp * k, 1000, out(ref))
+        m_seconds, m_spp = mitsuba_render(mi, dr, scene, m_spp, 1, out(image))  # compiled above
+        _, ref_spp = mitsuba_render(mi, dr, scene, m_spp * k, 1000, out(ref))
         name = f"Mitsuba 3 {mi.__version__} {mi.variant()}, sampler {sampler}"
-        mitsuba_rows.append((name, image, ref, m_spp, m_seconds))
+        mitsuba_rows.append((name, image, ref, m_spp, m_seconds, ref_spp))
 
     # clpt: the same time, then the reference with another seed.
     size = ["--width", str(width), "--height", str(height)]
     c_spp, c_seconds, log = clpt_render(
-        args.clpt, args.scene, ["--time", str(args.seconds), "--seed", "1", "-v"] + size + extra,
-        out("clpt.pfm"),
+        clpt, clpt_scene, ["--time", str(args.seconds), "--seed", "1", "-v"] + size + extra,
+        out("clpt.pfm"), args.out,
     )
     estimator = re.search(r"estimator: (.*)", log).group(1)
     clpt_render(
-        args.clpt, args.scene, ["--spp", str(c_spp * k), "--seed", "1000"] + size + extra,
-        out("clpt-ref.pfm"),
+        clpt, clpt_scene, ["--spp", str(c_spp * k), "--seed", "1000"] + size + extra,
+        out("clpt-ref.pfm"), args.out,
     )
 
     rows = []
-    for name, image, ref, spp, seconds in [
-        ("clpt (" + estimator + ")", "clpt.pfm", "clpt-ref.pfm", c_spp, c_seconds),
+    for name, image, ref, spp, seconds, ref_spp in [
+        ("clpt (" + estimator + ")", "clpt.pfm", "clpt-ref.pfm", c_spp, c_seconds, c_spp * k),
     ] + mitsuba_rows:
-        measured = relmse(args.clpt, out(image), out(ref))
-        e = measured / (1.0 + 1.0 / k)  # less the reference's own error
+        measured = relmse(clpt, out(image), out(ref))
+        e = measured / (1.0 + spp / ref_spp)  # less the reference's own error
         rows.append((name, spp, seconds, e, e * seconds))
-    print(f"{args.scene}, {width}x{height}, about {args.seconds} s each; error against each "
-          f"renderer's own {k}x reference")
+    print(f"{args.scene} ({SCENES[args.scene][0]}), {width}x{height}, about {args.seconds} s "
+          f"each; error against each renderer's own reference of about {k}x the samples")
     print("| renderer | spp | seconds | relMSE | relMSE x s |")
     print("|---|---|---|---|---|")
     for name, spp, seconds, e, es in rows:
