@@ -7,7 +7,7 @@
 //! POCL_VECTORIZER_REMARKS=1 cargo run --release --example pocl_vectorizer   # and why
 //! ```
 //!
-//! Each kernel is timed (the least of 5 launches of 2^24 work-items, after a warm-up) under
+//! Each kernel is timed (the least of 5 launches computing 2^24 values, after a warm-up) under
 //! PoCL's vectorising work-group method (`loopvec`, its default) and its plain loops (`loops`),
 //! each in a child process of this example, since PoCL reads `POCL_WORK_GROUP_METHOD` when it
 //! starts. Where both take the same time, the kernel ran scalar. On other OpenCL platforms the
@@ -15,7 +15,9 @@
 //!
 //! - `scalar`: arithmetic and `sqrt` on scalar floats, a select;
 //! - `builtin`: the same with `atan2pi`, `cospi` and `sinpi` (the rectangle-light sampler's);
-//! - `float3`: `dot`, `cross` and `length` of `float3` values (every kernel routine's types).
+//! - `float3_ops`: `dot`, `cross` and `length` of `float3` values (every kernel routine's types);
+//! - `polynomial`: atan2 / pi from a polynomial and selects, scalar floats only;
+//! - `polynomial_x8`: the same code on `float8`, eight values a work-item.
 
 use std::process::Command;
 use std::time::Instant;
@@ -36,6 +38,38 @@ __kernel void builtin(__global float* out) {
     const float c = cospi(b) * a + sinpi(b) * x;
     out[i] = c > 0.0f ? c : -c * 0.5f;
 }
+/* atan2(y, x) / pi without builtins (an odd polynomial on [0, 1], Abramowitz and Stegun 4.4.49's
+ * form, and selects), once on float and once on float8: the same code a work-item does for one
+ * value or for eight. */
+#define ATAN2PI(T, M, greater, less)                                                          \
+    inline T atan2pi_##T(T y, T x) {                                                          \
+        const T ax = fabs(x), ay = fabs(y);                                                   \
+        const M swap = greater(ay, ax);                                                       \
+        const T a = select(ay, ax, swap) / fmax(select(ax, ay, swap), (T)1e-30f);             \
+        const T s = a * a;                                                                    \
+        T r = a * (0.9998660f + s * (-0.3302995f + s * (0.1801410f + s * (-0.0851330f +       \
+                                                                        s * 0.0208351f)))); \
+        r *= 0.31830988f;                                                                     \
+        r = select(r, 0.5f - r, swap);                                                        \
+        r = select(r, 1.0f - r, less(x, (T)0.0f));                                            \
+        return select(r, -r, less(y, (T)0.0f));                                               \
+    }
+#define GREATER1(a, b) ((a) > (b))
+#define LESS1(a, b) ((a) < (b))
+ATAN2PI(float, int, GREATER1, LESS1)
+ATAN2PI(float8, int8, isgreater, isless)
+__kernel void polynomial(__global float* out) {
+    const uint i = get_global_id(0);
+    const float x = (float)(i & 1023u) * 0.0019f - 0.97f, y = (float)((i >> 10) & 255u) * 0.6f + 1.0f;
+    out[i] = atan2pi_float(y, x);
+}
+__kernel void polynomial_x8(__global float* out) {
+    const uint g = get_global_id(0);
+    const uint8 i = (uint8)(8u * g) + (uint8)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u);
+    const float8 x = convert_float8(i & 1023u) * 0.0019f - 0.97f;
+    const float8 y = convert_float8((i >> 10) & 255u) * 0.6f + 1.0f;
+    vstore8(atan2pi_float8(y, x), g, out);
+}
 __kernel void float3_ops(__global float* out) {
     const uint i = get_global_id(0);
     const float3 p = (float3)((float)(i & 1023u) * 0.19f - 97.0f, (float)((i >> 10) & 255u) * 0.6f + 1.0f, 2.0f);
@@ -45,7 +79,14 @@ __kernel void float3_ops(__global float* out) {
 }
 "#;
 
-const KERNELS: [&str; 3] = ["scalar", "builtin", "float3_ops"];
+/// Each kernel and the values one work-item computes.
+const KERNELS: [(&str, usize); 5] = [
+    ("scalar", 1),
+    ("builtin", 1),
+    ("float3_ops", 1),
+    ("polynomial", 1),
+    ("polynomial_x8", 8),
+];
 const ITEMS: usize = 1 << 24;
 /// Marks the child's result lines among what PoCL prints to standard output (its remarks).
 const RESULT: &str = "pocl_vectorizer:";
@@ -54,16 +95,18 @@ const RESULT: &str = "pocl_vectorizer:";
 fn time_kernels() -> ocl::Result<()> {
     let pq = ocl::ProQue::builder().src(SOURCE).dims(ITEMS).build()?;
     let out = pq.create_buffer::<f32>()?;
-    for name in KERNELS {
+    for (name, lanes) in KERNELS {
         let kernel = pq
             .kernel_builder(name)
             .arg(&out)
+            .global_work_size(ITEMS / lanes)
             .local_work_size(64)
             .build()?;
         let mut best = f64::INFINITY;
         for launch in 0..6 {
             let start = Instant::now();
-            // SAFETY: the kernel writes out[get_global_id(0)], within the buffer of ITEMS floats.
+            // SAFETY: ITEMS / lanes work-items write `lanes` floats each, at lanes * id:
+            // within the buffer of ITEMS floats.
             unsafe { kernel.enq()? };
             pq.finish()?;
             if launch > 0 {
@@ -116,9 +159,9 @@ fn main() {
                 .collect()
         })
         .collect();
-    println!("| kernel | ns a work-item, `loopvec` | ns a work-item, `loops` |");
+    println!("| kernel | ns a value, `loopvec` | ns a value, `loops` |");
     println!("|---|---|---|");
-    for (k, name) in KERNELS.iter().enumerate() {
+    for (k, (name, _)) in KERNELS.iter().enumerate() {
         let cell = |c: &Vec<String>| c.get(k).cloned().unwrap_or_else(|| "-".into());
         println!(
             "| `{name}` | {} | {} |",
