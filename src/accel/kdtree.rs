@@ -847,6 +847,7 @@ impl<'a> SahBuilder<'a> {
 struct MedianBuilder<'a> {
     tris: &'a [Tri],
     out: Output,
+    parallel_depth: u32,
 }
 
 impl MedianBuilder<'_> {
@@ -884,12 +885,58 @@ impl MedianBuilder<'_> {
                 .collect()
         };
         let (left, right) = (child(&left_box), child(&right_box));
+        let parallel = depth < self.parallel_depth && items.len() >= PARALLEL_MIN_TRIANGLES;
         drop(items);
         let at = self.out.nodes.len();
         self.out.nodes.push(KdNode::default());
-        self.node(left, left_box, depth + 1);
+        let mut right = Some(right);
+        let mut helped = None;
+        if parallel {
+            // As SahBuilder::node: the above child on another thread, into its own output, or
+            // here after the below child if no thread can be started.
+            let mut helper = MedianBuilder {
+                tris: self.tris,
+                out: Output {
+                    nodes: Vec::new(),
+                    indices: Vec::new(),
+                },
+                parallel_depth: self.parallel_depth,
+            };
+            let joined = std::thread::scope(|s| {
+                let handle = std::thread::Builder::new().spawn_scoped(s, || {
+                    if let Some(items) = right.take() {
+                        helper.node(items, right_box, depth + 1);
+                    }
+                });
+                self.node(left, left_box, depth + 1);
+                handle.map(|h| h.join())
+            });
+            match joined {
+                Ok(Ok(())) => helped = Some(helper.out),
+                Ok(Err(panic)) => std::panic::resume_unwind(panic),
+                Err(_) => {}
+            }
+        } else {
+            self.node(left, left_box, depth + 1);
+        }
         self.out.nodes[at] = KdNode::interior(axis, split, self.out.nodes.len() as u32);
-        self.node(right, right_box, depth + 1);
+        if let Some(sub) = helped {
+            self.out.append(sub);
+        }
+        if let Some(items) = right {
+            self.node(items, right_box, depth + 1);
+        }
+    }
+}
+
+/// The depth above which a node may hand a child to another thread: two subtrees per thread at
+/// the top balance the load well enough.
+fn parallel_depth() -> u32 {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    if threads > 1 {
+        usize::BITS - (threads - 1).leading_zeros() + 1
+    } else {
+        0
     }
 }
 
@@ -911,13 +958,7 @@ impl KdTree {
             d => d,
         }
         .min(MAX_DEPTH);
-        let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-        // Two subtrees per thread at the top balance the load well enough.
-        let parallel_depth = if threads > 1 {
-            usize::BITS - (threads - 1).leading_zeros() + 1
-        } else {
-            0
-        };
+        let parallel_depth = parallel_depth();
         let mut events: [Vec<Event>; 3] = Default::default();
         for (t, tri) in tris.iter().enumerate() {
             push_events(&mut events, t as u32, &tri.bounds());
@@ -967,6 +1008,7 @@ impl KdTree {
                 nodes: Vec::new(),
                 indices: Vec::new(),
             },
+            parallel_depth: parallel_depth(),
         };
         builder.node(items, bounds, 0);
         KdTree {
