@@ -645,20 +645,15 @@ impl<'a> SahBuilder<'a> {
             // started, it is built here after the below child, as in the serial case.
             let mut helper =
                 SahBuilder::new(self.tris, self.costs, self.budget, self.parallel_depth);
-            let joined = std::thread::scope(|s| {
-                let handle = std::thread::Builder::new().spawn_scoped(s, || {
+            let ran = beside(
+                || self.node(left.0, left_box, left.1, left_allowance, depth + 1),
+                || {
                     if let Some((events, n)) = right.take() {
                         helper.node(events, right_box, n, right_allowance, depth + 1);
                     }
-                });
-                self.node(left.0, left_box, left.1, left_allowance, depth + 1);
-                handle.map(|h| h.join())
-            });
-            match joined {
-                Ok(Ok(())) => helped = Some(helper.out),
-                Ok(Err(panic)) => std::panic::resume_unwind(panic),
-                Err(_) => {}
-            }
+                },
+            );
+            helped = ran.then_some(helper.out);
         } else {
             self.node(left.0, left_box, left.1, left_allowance, depth + 1);
         }
@@ -902,20 +897,15 @@ impl MedianBuilder<'_> {
                 },
                 parallel_depth: self.parallel_depth,
             };
-            let joined = std::thread::scope(|s| {
-                let handle = std::thread::Builder::new().spawn_scoped(s, || {
+            let ran = beside(
+                || self.node(left, left_box, depth + 1),
+                || {
                     if let Some(items) = right.take() {
                         helper.node(items, right_box, depth + 1);
                     }
-                });
-                self.node(left, left_box, depth + 1);
-                handle.map(|h| h.join())
-            });
-            match joined {
-                Ok(Ok(())) => helped = Some(helper.out),
-                Ok(Err(panic)) => std::panic::resume_unwind(panic),
-                Err(_) => {}
-            }
+                },
+            );
+            helped = ran.then_some(helper.out);
         } else {
             self.node(left, left_box, depth + 1);
         }
@@ -926,6 +916,22 @@ impl MedianBuilder<'_> {
         if let Some(items) = right {
             self.node(items, right_box, depth + 1);
         }
+    }
+}
+
+/// Runs `here` on this thread and `there` on another (a node's two children, built at once):
+/// whether `there` ran. False when no thread could be started: the caller then does that work
+/// itself, after `here`, as in a serial build. A panic in either goes on.
+fn beside(here: impl FnOnce(), there: impl FnOnce() + Send) -> bool {
+    let joined = std::thread::scope(|s| {
+        let handle = std::thread::Builder::new().spawn_scoped(s, there);
+        here();
+        handle.map(|h| h.join())
+    });
+    match joined {
+        Ok(Ok(())) => true,
+        Ok(Err(panic)) => std::panic::resume_unwind(panic),
+        Err(_) => false,
     }
 }
 
