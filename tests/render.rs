@@ -234,9 +234,10 @@ fn reference_film(scene: &Scene, spp: u32) -> Film {
     let mut sum = vec![[0.0f32; 4]; (w * h) as usize];
     let mut sum_sq = sum.clone();
     let rows: Vec<u32> = (0..h).collect();
+    // A thread a row: rows differ in cost (glass, the light), so halves left a core idle.
     let results: Vec<Vec<PixelSums>> = std::thread::scope(|s| {
         let handles: Vec<_> = rows
-            .chunks(h.div_ceil(2) as usize)
+            .chunks(1)
             .map(|chunk| {
                 let world = &world;
                 s.spawn(move || {
