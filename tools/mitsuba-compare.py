@@ -6,8 +6,8 @@ with the Stanford dragon (100k triangles, the original's data: --seed-dir, defau
 $CLPT_SEED_DIR or ../shared/seed) in place of its green ball. Each is written out for Mitsuba
 here (rectangles for the six walls, the ceiling an area emitter with a black BSDF, diffuse
 spheres, the dragon an `obj` shape with face normals as clpt shades a mesh without normals, the
-same camera: the original's `angle` a gives a vertical field of view of 2 atan(a / 2)). Each renderer renders the room for about
---seconds, and a reference of --reference-factor times its samples with another seed; the
+same camera: the original's `angle` a gives a vertical field of view of 2 atan(a / 2)). Each
+renderer renders the room for about --seconds, and a reference of --reference-factor times its samples with another seed; the
 error of each render is measured against its own renderer's reference (`clpt compare`), so
 small differences between the two renderers' pictures (pixel filters, the 2x2 sub-pixels) do
 not count as error. A reference's own error adds to what is measured, by about 1/factor of it
@@ -185,12 +185,13 @@ def main():
     clpt_scene, mitsuba_scene = SCENES[args.scene]
     clpt_scene = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", clpt_scene)
     seed_dir = os.path.abspath(args.seed_dir)
-    if not os.path.isdir(os.path.join(seed_dir, "mesh")):
-        p.error(f"no mesh/ in --seed-dir {seed_dir}")
-    link = out("seed")
-    if os.path.islink(link):
-        os.remove(link)
-    os.symlink(seed_dir, link)
+    if args.scene == "dragon_room":  # the room needs none of the original's data
+        if not os.path.isdir(os.path.join(seed_dir, "mesh")):
+            p.error(f"no mesh/ in --seed-dir {seed_dir}")
+        link = out("seed")
+        if os.path.islink(link):
+            os.remove(link)
+        os.symlink(seed_dir, link)
     extra = args.clpt_args.split()
     k = args.reference_factor
 

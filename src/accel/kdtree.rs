@@ -540,6 +540,7 @@ impl Budget {
 
 /// A tree under construction (or a subtree built on another thread), indices relative to
 /// its own start.
+#[derive(Default)]
 struct Output {
     nodes: Vec<KdNode>,
     indices: Vec<u32>,
@@ -594,10 +595,7 @@ impl<'a> SahBuilder<'a> {
             costs,
             budget,
             side: vec![BOTH; tris.len()],
-            out: Output {
-                nodes: Vec::new(),
-                indices: Vec::new(),
-            },
+            out: Output::default(),
             parallel_depth,
         }
     }
@@ -891,10 +889,7 @@ impl MedianBuilder<'_> {
             // here after the below child if no thread can be started.
             let mut helper = MedianBuilder {
                 tris: self.tris,
-                out: Output {
-                    nodes: Vec::new(),
-                    indices: Vec::new(),
-                },
+                out: Output::default(),
                 parallel_depth: self.parallel_depth,
             };
             let ran = beside(
@@ -1010,10 +1005,7 @@ impl KdTree {
         let bounds = items.iter().fold(Aabb::EMPTY, |b, (_, t)| b.union(*t));
         let mut builder = MedianBuilder {
             tris: &tris,
-            out: Output {
-                nodes: Vec::new(),
-                indices: Vec::new(),
-            },
+            out: Output::default(),
             parallel_depth: parallel_depth(),
         };
         builder.node(items, bounds, 0);
