@@ -19,6 +19,9 @@
  *   CLPT_NEE          next-event estimation with MIS (nee.h); 0: pure path tracing
  *   CLPT_REGENERATE   a lane starts its next sample while others still trace, by warp vote
  *                     (pathtracer.cl render_pass; NVIDIA's inline PTX): set for NVIDIA GPUs
+ *   CLPT_LANES        the lanes a work-item carries (lanes.h): 1, or 4, 8 or 16 with CLPT_WIDE
+ *   CLPT_WIDE         work-items of CLPT_LANES > 1 lanes (lanes.h); 0: plain scalars. Unlike
+ *                     the others, it follows CLPT_LANES when absent (the probes of each width)
  */
 #ifndef CLPT_FEATURES_H
 #define CLPT_FEATURES_H
@@ -55,6 +58,12 @@
 #endif
 #ifndef CLPT_REGENERATE
 #define CLPT_REGENERATE 0
+#endif
+#ifndef CLPT_LANES
+#define CLPT_LANES 1
+#endif
+#ifndef CLPT_WIDE
+#define CLPT_WIDE (CLPT_LANES > 1)
 #endif
 
 #endif

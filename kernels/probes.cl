@@ -7,59 +7,12 @@
  */
 #include "types.h"
 #include "vecmath.h"
-#include "rng.h"
 #include "ray.h"
 #include "camera.h"
 #include "objects.h"
 #include "texture.h"
 #include "material.h"
 #include "nee.h"
-
-/* Philox 4x32-10 on given counters and keys (known-answer tests). */
-__kernel void probe_philox(__global const uint4* ctr, __global const uint2* key,
-                           __global uint4* out) {
-    const uint i = get_global_id(0);
-    out[i] = philox4x32_10(ctr[i], key[i]);
-}
-
-/* Block k of a path's numbers: its k-th BSDF-side block (rng_next4, the camera's first), or
- * with `light` the light sample's at vertex k (rng_light4). */
-inline float4 probe_rng_block(Rng* rng, uint light, uint k) {
-    return light ? rng_light4(rng, k) : rng_next4(rng);
-}
-
-/* `dims` blocks of the stream of (seed, pixel = work-item, sample). */
-__kernel void probe_rng_stream(uint seed_lo, uint seed_hi, uint sample, uint light, uint dims,
-                               __global float4* out) {
-    const uint pixel = get_global_id(0);
-    Rng rng = rng_for_path(seed_lo, seed_hi, pixel, sample);
-    for (uint k = 0u; k < dims; ++k) {
-        out[pixel * dims + k] = probe_rng_block(&rng, light, k);
-    }
-}
-
-/* `dims` blocks of the samples sample_start + work-item of one pixel. */
-__kernel void probe_rng_samples(uint seed_lo, uint seed_hi, uint pixel, uint sample_start,
-                                uint light, uint dims, __global float4* out) {
-    const uint i = get_global_id(0);
-    Rng rng = rng_for_path(seed_lo, seed_hi, pixel, sample_start + i);
-    for (uint k = 0u; k < dims; ++k) {
-        out[i * dims + k] = probe_rng_block(&rng, light, k);
-    }
-}
-
-/* The unscrambled Sobol point `index`, from sobol.h's table and loop (only tests need it). */
-inline uint4 sobol4(uint index) {
-    const uint4 x = sobol4_reversed(reverse_bits32(index));
-    return (uint4)(reverse_bits32(x.x), reverse_bits32(x.y), reverse_bits32(x.z),
-                   reverse_bits32(x.w));
-}
-
-/* The unscrambled Sobol points of the given indices (sobol.h). */
-__kernel void probe_sobol(__global const uint* index, __global uint4* out) {
-    const uint i = get_global_id(0);
-    out[i] = sobol4(index[i]);
-}
 
 /* Primary rays: input (px, py, -, -) and four uniforms; output origin and direction. */
 __kernel void probe_camera(__global const RenderParams* params, __global const uint4* pixel,

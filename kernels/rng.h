@@ -37,6 +37,7 @@
 #ifndef CLPT_RNG_H
 #define CLPT_RNG_H
 
+#include "lanes.h"
 #include "sobol.h"
 
 #define PHILOX_M0 0xD2511F53u
@@ -44,7 +45,7 @@
 #define PHILOX_W0 0x9E3779B9u
 #define PHILOX_W1 0xBB67AE85u
 
-inline uint4 philox4x32_10(uint4 ctr, uint2 key) {
+inline LUint4 philox4x32_10(LUint4 ctr, uint2 key) {
     for (int round = 0; round < 10; ++round) {
         if (round > 0) {
             key.x += PHILOX_W0;
@@ -53,29 +54,36 @@ inline uint4 philox4x32_10(uint4 ctr, uint2 key) {
         /* Both halves of each product from one 64-bit multiply: PoCL 3.1's mul_hi builds the
          * high word from 16-bit pieces (a fifth of a path's time in smallpt went to this
          * file); NVIDIA's compiler makes the same single wide multiply of either form. */
-        const ulong p0 = (ulong)PHILOX_M0 * ctr.x;
-        const ulong p1 = (ulong)PHILOX_M1 * ctr.z;
-        const uint hi0 = (uint)(p0 >> 32), lo0 = (uint)p0;
-        const uint hi1 = (uint)(p1 >> 32), lo1 = (uint)p1;
-        ctr = (uint4)(hi1 ^ ctr.y ^ key.x, lo1, hi0 ^ ctr.w ^ key.y, lo0);
+        const lulong p0 = (ulong)PHILOX_M0 * LANE_CONVERT(ulong, ctr.x);
+        const lulong p1 = (ulong)PHILOX_M1 * LANE_CONVERT(ulong, ctr.z);
+        const luint hi0 = LANE_CONVERT(uint, p0 >> 32), lo0 = LANE_CONVERT(uint, p0);
+        const luint hi1 = LANE_CONVERT(uint, p1 >> 32), lo1 = LANE_CONVERT(uint, p1);
+        ctr = make_luint4(hi1 ^ ctr.y ^ key.x, lo1, hi0 ^ ctr.w ^ key.y, lo0);
     }
     return ctr;
 }
 
 /* The numbers of one path: (seed, pixel, sample) fixed, `dimension` advancing. The quasi-random
  * blocks are drawn together when the path starts (rng_for_path) and handed out in order: one
- * copy of the Sobol code in a rolled loop, not one per call site inside the path loop. */
+ * copy of the Sobol code in a rolled loop, not one per call site inside the path loop. With
+ * lanes (lanes.h), each lane holds a sample of the same pixel, and lanes restart apart
+ * (rng_restart), so each has its own sample and dimension. */
 typedef struct Rng {
     uint2 key;
     uint pixel;
-    uint sample;
-    uint dimension;
-    uint4 quasi0, quasi1, quasi2; /* blocks dimension .. SOBOL_BLOCKS - 1, next first */
+    luint sample;
+    luint dimension;
+    LUint4 quasi0, quasi1, quasi2; /* blocks dimension .. SOBOL_BLOCKS - 1, next first */
 } Rng;
 
 /* The top 24 bits of each word as a float in [0, 1): every value is exact, 1 is never reached. */
-inline float4 rng_to_unit4(uint4 bits) {
-    return convert_float4(bits >> 8u) * 0x1.0p-24f;
+inline lfloat rng_to_unit(luint bits) {
+    return LANE_CONVERT(float, bits >> 8u) * 0x1.0p-24f;
+}
+
+inline LFloat4 rng_to_unit4(LUint4 bits) {
+    return make_lfloat4(rng_to_unit(bits.x), rng_to_unit(bits.y), rng_to_unit(bits.z),
+                        rng_to_unit(bits.w));
 }
 
 /* Blocks 0 .. SOBOL_BLOCKS - 1 are quasi-random: the camera's and the first two bounces' BSDF
@@ -89,53 +97,75 @@ inline float4 rng_to_unit4(uint4 bits) {
 /* Quasi-random block `block` of sample `sample` in pixel `pixel`: Philox of the counter
  * (pixel, block, half, ~0) under the seed gives the shuffle and scrambling seeds, the sample
  * the point index. */
-inline uint4 rng_quasi_block(uint2 key, uint pixel, uint sample, uint block) {
-    const uint half_index = (sample >> 2) & 1u;
-    const uint point = ((sample >> 3) << 2) | (sample & 3u);
-    const uint4 seeds = philox4x32_10((uint4)(pixel, block, half_index, 0xffffffffu), key);
+inline LUint4 rng_quasi_block(uint2 key, uint pixel, luint sample, uint block) {
+    const luint half_index = (sample >> 2) & 1u;
+    const luint point = ((sample >> 3) << 2) | (sample & 3u);
+    const LUint4 counter = make_luint4((luint)(pixel), (luint)(block), half_index, (luint)(~0u));
+    const LUint4 seeds = philox4x32_10(counter, key);
     /* A fifth seed for the fourth coordinate, from the other four (Weyl step, mixing). */
-    const uint seed_w = (seeds.x ^ seeds.w) * 0x9E3779B9u + seeds.y;
-    return scrambled_sobol4(point, seeds.x, (uint4)(seeds.y, seeds.z, seeds.w, seed_w));
+    const luint seed_w = (seeds.x ^ seeds.w) * 0x9E3779B9u + seeds.y;
+    return scrambled_sobol4(point, seeds.x, make_luint4(seeds.y, seeds.z, seeds.w, seed_w));
 }
 
-inline Rng rng_for_path(uint seed_lo, uint seed_hi, uint pixel, uint sample) {
-    Rng rng;
-    rng.key = (uint2)(seed_lo, seed_hi);
-    rng.pixel = pixel;
-    rng.sample = sample;
-    rng.dimension = 0u;
-    rng.quasi1 = rng.quasi0 = (uint4)(0u);
+/* Lanes m of rng start sample `sample` (every lane at width 1, where m is true): its
+ * quasi-random blocks drawn, its dimension 0. */
+inline void rng_restart(Rng* rng, lmask m, luint sample) {
+    rng->sample = select(rng->sample, sample, m);
+    rng->dimension = select(rng->dimension, (luint)(0u), m);
     /* Last block first, each pushed in front of the others: a rolled loop (see sobol4_reversed
      * for why the code is kept small). */
 #pragma unroll 1
     for (uint b = SOBOL_BLOCKS; b-- > 0u;) {
-        rng.quasi2 = rng.quasi1;
-        rng.quasi1 = rng.quasi0;
-        rng.quasi0 = rng_quasi_block(rng.key, pixel, sample, b);
+        rng->quasi2 = select_luint4(rng->quasi2, rng->quasi1, m);
+        rng->quasi1 = select_luint4(rng->quasi1, rng->quasi0, m);
+        const LUint4 block = rng_quasi_block(rng->key, rng->pixel, sample, b);
+        rng->quasi0 = select_luint4(rng->quasi0, block, m);
     }
+}
+
+inline Rng rng_for_path(uint seed_lo, uint seed_hi, uint pixel, luint sample) {
+    Rng rng;
+    rng.key = (uint2)(seed_lo, seed_hi);
+    rng.pixel = pixel;
+    const luint zero = rng.sample = rng.dimension = (luint)(0u); /* then every lane restarts */
+    rng.quasi2 = rng.quasi1 = rng.quasi0 = make_luint4(zero, zero, zero, zero);
+    rng_restart(&rng, LANE_TRUE, sample);
     return rng;
 }
 
-/* Four uniform numbers in [0, 1) from the next dimension block. */
-inline float4 rng_next4(Rng* rng) {
-    const uint block = rng->dimension++;
-    uint4 bits;
-    if (block < SOBOL_BLOCKS) {
-        bits = rng->quasi0;
-        rng->quasi0 = rng->quasi1;
-        rng->quasi1 = rng->quasi2;
-    } else {
-        bits = philox4x32_10((uint4)(rng->pixel, rng->sample, block, 0u), rng->key);
+/* Four uniform numbers in [0, 1) from each lane's next dimension block. */
+inline LFloat4 rng_next4(Rng* rng) {
+    const luint block = rng->dimension;
+    rng->dimension += 1u;
+    const lmask quasi = block < SOBOL_BLOCKS;
+    LUint4 bits = rng->quasi0;
+    if (lane_any(quasi)) {
+        rng->quasi0 = select_luint4(rng->quasi0, rng->quasi1, quasi);
+        rng->quasi1 = select_luint4(rng->quasi1, rng->quasi2, quasi);
+    }
+    if (!lane_all(quasi)) {
+        const LUint4 plain = philox4x32_10(
+            make_luint4((luint)(rng->pixel), rng->sample, block, (luint)(0u)), rng->key);
+        bits = select_luint4(plain, bits, quasi);
     }
     return rng_to_unit4(bits);
 }
 
-/* Four uniform numbers for the light sample at vertex `vertex` (0 the first) of the path, from
- * blocks apart from the BSDF's (see the top of this file for why): quasi-random at the first
- * vertex, where light sampling spends most of its samples, Philox numbers later. */
-inline float4 rng_light4(const Rng* r, uint vertex) {
-    return rng_to_unit4(vertex ? philox4x32_10((uint4)(r->pixel, r->sample, vertex, 1u), r->key)
-                               : rng_quasi_block(r->key, r->pixel, r->sample, 0x80000000u));
+/* Four uniform numbers for the light sample at vertex `vertex` (0 the first) of each lane's
+ * path, from blocks apart from the BSDF's (see the top of this file for why): quasi-random at
+ * the first vertex, where light sampling spends most of its samples, Philox numbers later. */
+inline LFloat4 rng_light4(const Rng* r, luint vertex) {
+    const lmask first = vertex == 0u;
+    LUint4 bits = r->quasi0; /* any value: each lane takes one of the two below */
+    if (lane_any(first)) {
+        bits = rng_quasi_block(r->key, r->pixel, r->sample, 0x80000000u);
+    }
+    if (!lane_all(first)) {
+        const LUint4 plain = philox4x32_10(
+            make_luint4((luint)(r->pixel), r->sample, vertex, (luint)(1u)), r->key);
+        bits = select_luint4(plain, bits, first);
+    }
+    return rng_to_unit4(bits);
 }
 
 #endif

@@ -28,6 +28,8 @@
 #ifndef CLPT_SOBOL_H
 #define CLPT_SOBOL_H
 
+#include "lanes.h"
+
 __constant uint4 SOBOL_MATRIX_REVERSED[32] = {
     (uint4)(0x80000000u, 0xffffffffu, 0xaaaa00a3u, 0xc900a00au),
     (uint4)(0x40000000u, 0x55555555u, 0x77770071u, 0x45004004u),
@@ -62,7 +64,7 @@ __constant uint4 SOBOL_MATRIX_REVERSED[32] = {
     (uint4)(0x00000002u, 0x00000003u, 0x00000003u, 0x00000003u),
     (uint4)(0x00000001u, 0x00000001u, 0x00000001u, 0x00000001u)};
 
-inline uint reverse_bits32(uint x) {
+inline luint reverse_bits32(luint x) {
     x = (x << 16) | (x >> 16);
     x = ((x & 0x00ff00ffu) << 8) | ((x >> 8) & 0x00ff00ffu);
     x = ((x & 0x0f0f0f0fu) << 4) | ((x >> 4) & 0x0f0f0f0fu);
@@ -72,7 +74,7 @@ inline uint reverse_bits32(uint x) {
 
 /* Burley (2020), section 3: the Laine-Karras permutation, where each output bit depends only on
  * the input bits below it; on reversed bits, each digit depends on the digits above it. */
-inline uint laine_karras(uint x, uint seed) {
+inline luint laine_karras(luint x, luint seed) {
     x += seed;
     x ^= x * 0x6c50b47cu;
     x ^= x * 0xb82f1e52u;
@@ -86,22 +88,24 @@ inline uint laine_karras(uint x, uint seed) {
  * loop: unrolled, its 32 x 4 constants made the path loop's code 900 instructions longer, and
  * that code size, not the arithmetic, is what cost time on the H200 (BENCHMARKS.md, "What the
  * quasi-random numbers cost"). */
-inline uint4 sobol4_reversed(uint index_reversed) {
-    uint4 x = (uint4)(0u);
+inline LUint4 sobol4_reversed(luint index_reversed) {
+    LUint4 x = make_luint4((luint)(0u), (luint)(0u), (luint)(0u), (luint)(0u));
 #pragma unroll 1
     for (uint p = 0u; p < 32u; ++p) {
-        x ^= SOBOL_MATRIX_REVERSED[p] & (uint4)(0u - ((index_reversed >> p) & 1u));
+        const luint bit = 0u - ((index_reversed >> p) & 1u);
+        const uint4 c = SOBOL_MATRIX_REVERSED[p];
+        x = make_luint4(x.x ^ (c.x & bit), x.y ^ (c.y & bit), x.z ^ (c.z & bit), x.w ^ (c.w & bit));
     }
     return x;
 }
 
 /* Point j of the sequence shuffled by `shuffle`, each coordinate Owen-scrambled by its seed. */
-inline uint4 scrambled_sobol4(uint j, uint shuffle, uint4 seeds) {
-    const uint4 x = sobol4_reversed(laine_karras(reverse_bits32(j), shuffle));
-    return (uint4)(reverse_bits32(laine_karras(x.x, seeds.x)),
-                   reverse_bits32(laine_karras(x.y, seeds.y)),
-                   reverse_bits32(laine_karras(x.z, seeds.z)),
-                   reverse_bits32(laine_karras(x.w, seeds.w)));
+inline LUint4 scrambled_sobol4(luint j, luint shuffle, LUint4 seeds) {
+    const LUint4 x = sobol4_reversed(laine_karras(reverse_bits32(j), shuffle));
+    return make_luint4(reverse_bits32(laine_karras(x.x, seeds.x)),
+                       reverse_bits32(laine_karras(x.y, seeds.y)),
+                       reverse_bits32(laine_karras(x.z, seeds.z)),
+                       reverse_bits32(laine_karras(x.w, seeds.w)));
 }
 
 #endif

@@ -2,18 +2,40 @@
 //! (Random123's kat_vectors); the Sobol table against the Joe-Kuo recurrence; the net property
 //! of a pixel's samples in every block of four dimensions, in each of the two independent
 //! halves; uniformity of what rng_next4 returns (chi-square); and no correlation between
-//! neighbouring pixels, the two halves, neighbouring seeds, or dimensions.
+//! neighbouring pixels, the two halves, neighbouring seeds, or dimensions; and that the programs
+//! of several lanes a work-item (kernels/lanes.h) draw in each lane exactly the numbers of its
+//! sample.
 
 mod common;
 
+use clpt::device::Device;
+use clpt::device::program::{self, KernelSources};
 use ocl::prm::{Float4, Uint2, Uint4};
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
 
+/// kernels/rng_probes.cl built with `lanes` lanes a work-item (kernels/lanes.h).
+fn rng_probes(device: &Device, lanes: u32) -> ocl::Program {
+    let defines = if lanes == 1 {
+        vec![]
+    } else {
+        vec![("CLPT_LANES", lanes.to_string())]
+    };
+    program::build_entry(
+        device,
+        &KernelSources::Embedded,
+        "rng_probes.cl",
+        &defines,
+        None,
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
+    .program
+}
+
 #[test]
 fn philox_known_answers() {
     let device = common::device();
-    let program = common::probes(&device);
+    let program = rng_probes(&device, 1);
     let cases: [([u32; 4], [u32; 2], [u32; 4]); 3] = [
         (
             [0; 4],
@@ -56,11 +78,19 @@ fn philox_known_answers() {
     }
 }
 
-/// Runs the probe `name` (arguments: the seed's two words, then `args`, then the output) on
-/// `items` work-items that write `dims` blocks of four numbers each.
-fn rng_probe(name: &str, seed: u64, args: &[u32], items: usize, dims: u32) -> Vec<[f32; 4]> {
+/// Runs the probe `name` of the program of `lanes` lanes (arguments: the seed's two words, then
+/// `args`, then the output) for `items` samples or pixels (`items / lanes` work-items) that write
+/// `dims` blocks of four numbers each.
+fn rng_probe(
+    name: &str,
+    lanes: u32,
+    seed: u64,
+    args: &[u32],
+    items: usize,
+    dims: u32,
+) -> Vec<[f32; 4]> {
     let device = common::device();
-    let program = common::probes(&device);
+    let program = rng_probes(&device, lanes);
     let out = common::output::<Float4>(&device, items * dims as usize);
     let mut builder = ocl::Kernel::builder();
     builder
@@ -73,7 +103,8 @@ fn rng_probe(name: &str, seed: u64, args: &[u32], items: usize, dims: u32) -> Ve
         builder.arg(a);
     }
     let kernel = builder.arg(dims).arg(&out).build().unwrap();
-    common::run(&kernel, items);
+    assert_eq!(items % lanes as usize, 0);
+    common::run(&kernel, items / lanes as usize);
     common::read(&out)
         .iter()
         .map(|v| [v[0], v[1], v[2], v[3]])
@@ -83,12 +114,12 @@ fn rng_probe(name: &str, seed: u64, args: &[u32], items: usize, dims: u32) -> Ve
 /// `dims` blocks (4 numbers each) for `pixels` pixels of one sample index: the camera's and
 /// the BSDF's (rng_next4).
 fn stream(seed: u64, sample: u32, pixels: usize, dims: u32) -> Vec<[f32; 4]> {
-    rng_probe("probe_rng_stream", seed, &[sample, 0], pixels, dims)
+    rng_probe("probe_rng_stream", 1, seed, &[sample, 0], pixels, dims)
 }
 
 /// As [`stream`], the light samples' blocks of the first `vertices` vertices (rng_light4).
 fn light_stream(seed: u64, sample: u32, pixels: usize, vertices: u32) -> Vec<[f32; 4]> {
-    rng_probe("probe_rng_stream", seed, &[sample, 1], pixels, vertices)
+    rng_probe("probe_rng_stream", 1, seed, &[sample, 1], pixels, vertices)
 }
 
 /// Pearson's chi-square statistic of `counts` against a uniform expectation.
@@ -260,7 +291,7 @@ fn sobol_points_follow_the_joe_kuo_direction_numbers() {
     let mut index: Vec<u32> = (0..32).map(|k| 1u32 << k).collect();
     index.extend((0..16u32).chain((0..1000).map(|_| rng.random::<u32>())));
     let device = common::device();
-    let program = common::probes(&device);
+    let program = rng_probes(&device, 1);
     let input = common::buffer(&device, &index);
     let out = common::output::<Uint4>(&device, index.len());
     let kernel = ocl::Kernel::builder()
@@ -292,8 +323,47 @@ fn samples(
     count: usize,
     dims: u32,
 ) -> Vec<[f32; 4]> {
+    samples_in_lanes(1, seed, (pixel, light), start, count, dims)
+}
+
+/// As [`samples`], drawn by the program of `lanes` lanes a work-item, whose lanes stand at
+/// different dimensions while they draw (kernels/rng_probes.cl).
+fn samples_in_lanes(
+    lanes: u32,
+    seed: u64,
+    (pixel, light): (u32, bool),
+    start: u32,
+    count: usize,
+    dims: u32,
+) -> Vec<[f32; 4]> {
     let args = [pixel, start, u32::from(light)];
-    rng_probe("probe_rng_samples", seed, &args, count, dims)
+    rng_probe("probe_rng_samples", lanes, seed, &args, count, dims)
+}
+
+#[test]
+fn each_lane_draws_exactly_the_numbers_of_its_sample() {
+    // The BSDF side past the quasi-random blocks into Philox's, and the light's first vertex
+    // (quasi-random) and later ones; lanes restart at different steps, so a draw mixes lanes
+    // in quasi-random and plain blocks.
+    for (seed, pixel, start) in [(1u64, 0u32, 0u32), (0xdead_beef_0000_0007, 123_457, 4093)] {
+        for (light, dims) in [(false, 6u32), (true, 4)] {
+            let one = samples(seed, (pixel, light), start, 64, dims);
+            for lanes in [4u32, 8, 16] {
+                let wide = samples_in_lanes(lanes, seed, (pixel, light), start, 64, dims);
+                for (i, (a, b)) in one.iter().zip(&wide).enumerate() {
+                    let (a, b) = (a.map(f32::to_bits), b.map(f32::to_bits));
+                    assert_eq!(
+                        a,
+                        b,
+                        "{lanes} lanes, seed {seed:#x}, pixel {pixel}, light {light}: sample \
+                         {}, block {}",
+                        start as usize + i / dims as usize,
+                        i % dims as usize
+                    );
+                }
+            }
+        }
+    }
 }
 
 /// True if the points put exactly one point in each box of a 2^a x 2^(m - a) grid, for every

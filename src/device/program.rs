@@ -18,6 +18,7 @@ const EMBEDDED: &[(&str, &str)] = &[
     ("types.h", include_str!("../../kernels/types.h")),
     ("vecmath.h", include_str!("../../kernels/vecmath.h")),
     ("texture.h", include_str!("../../kernels/texture.h")),
+    ("lanes.h", include_str!("../../kernels/lanes.h")),
     ("sobol.h", include_str!("../../kernels/sobol.h")),
     ("rng.h", include_str!("../../kernels/rng.h")),
     ("ray.h", include_str!("../../kernels/ray.h")),
@@ -36,6 +37,7 @@ const EMBEDDED: &[(&str, &str)] = &[
     ("trial.cl", include_str!("../../kernels/trial.cl")),
     ("pathtracer.cl", include_str!("../../kernels/pathtracer.cl")),
     ("probes.cl", include_str!("../../kernels/probes.cl")),
+    ("rng_probes.cl", include_str!("../../kernels/rng_probes.cl")),
 ];
 
 /// Where kernel sources come from.

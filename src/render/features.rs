@@ -149,6 +149,9 @@ impl Features {
             ("CLPT_THIN_LENS", flag(self.thin_lens)),
             ("CLPT_NEE", flag(self.nee)),
             ("CLPT_REGENERATE", flag(self.regenerate)),
+            // Render programs run one path a work-item so far (kernels/lanes.h,
+            // docs/cpu-lanes.md).
+            ("CLPT_WIDE", flag(false)),
         ]
     }
 }
