@@ -14,7 +14,8 @@
  * Masks (lmask) are what comparisons of lane values return: 1 or 0 at width 1, all bits set or
  * none wider. Both are true for select() and lane_any(), so masks are combined with & | and !
  * only (never ~, which turns a width-1 true into another true), and a mask true in every lane
- * is LANE_TRUE, not a cast of 1.
+ * is LANE_TRUE, not a cast of 1. lselect(a, b, m) is select() of lane values (at width 1 the
+ * conditional expression, which a scalar program would have written).
  */
 #ifndef CLPT_LANES_H
 #define CLPT_LANES_H
@@ -34,12 +35,19 @@ typedef LANE_TYPE(float) lfloat;
 typedef LANE_TYPE(uint) luint;
 typedef LANE_TYPE(ulong) lulong;
 typedef LANE_TYPE(int) lmask;
+typedef struct LFloat2 {
+    lfloat x, y;
+} LFloat2;
 typedef struct LFloat4 {
     lfloat x, y, z, w;
 } LFloat4;
 typedef struct LUint4 {
     luint x, y, z, w;
 } LUint4;
+inline LFloat2 make_lfloat2(lfloat x, lfloat y) {
+    LFloat2 v = {x, y};
+    return v;
+}
 inline LFloat4 make_lfloat4(lfloat x, lfloat y, lfloat z, lfloat w) {
     LFloat4 v = {x, y, z, w};
     return v;
@@ -52,6 +60,18 @@ inline LUint4 make_luint4(luint x, luint y, luint z, luint w) {
 inline LUint4 select_luint4(LUint4 a, LUint4 b, lmask m) {
     return make_luint4(select(a.x, b.x, m), select(a.y, b.y, m), select(a.z, b.z, m),
                        select(a.w, b.w, m));
+}
+#define lselect(a, b, m) select((a), (b), (m))
+/* Lane `lane` of v, and the first lane where m is true (m true somewhere). */
+inline uint lane_uint(luint v, uint lane) {
+    return ((const uint*)&v)[lane];
+}
+inline uint lane_first(lmask m) {
+    uint lane = 0u;
+    while (((const int*)&m)[lane] == 0) {
+        ++lane;
+    }
+    return lane;
 }
 #define lane_any(m) any(m)
 #define lane_all(m) all(m)
@@ -70,11 +90,14 @@ typedef float lfloat;
 typedef uint luint;
 typedef ulong lulong;
 typedef int lmask;
+typedef float2 LFloat2;
 typedef float4 LFloat4;
 typedef uint4 LUint4;
+#define make_lfloat2(x, y) ((float2)((x), (y)))
 #define make_lfloat4(x, y, z, w) ((float4)((x), (y), (z), (w)))
 #define make_luint4(x, y, z, w) ((uint4)((x), (y), (z), (w)))
 #define select_luint4(a, b, m) ((m) ? (b) : (a))
+#define lselect(a, b, m) ((m) ? (b) : (a))
 #define lane_any(m) ((m) != 0)
 #define lane_all(m) ((m) != 0)
 #define LANE_TRUE 1

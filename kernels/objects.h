@@ -9,7 +9,12 @@
 #ifndef CLPT_OBJECTS_H
 #define CLPT_OBJECTS_H
 
-/* What is compiled follows the program switches of features.h. */
+/* What is compiled follows the program switches of features.h. Programs of several lanes a
+ * work-item (lanes.h) have spheres and planes without transforms and the object BVH so far
+ * (docs/cpu-lanes.md). */
+#if CLPT_WIDE && (CLPT_TRANSFORMS || CLPT_MESHES || CLPT_REVSURFACES || CLPT_BVH)
+#error "a wide program (CLPT_WIDE) has spheres and planes only, without transforms or the BVH"
+#endif
 #if CLPT_TRANSFORMS
 #include "transform.h"
 #endif
@@ -72,27 +77,28 @@ typedef struct Scene {
      mesh_instances, kd_nodes, kd_indices, triangles, vertices, normals, objects, bvh,         \
      revsurfaces, rev_points, lights}
 
+/* A hit of each lane (lanes.h). */
 typedef struct Hit {
-    float t;
-    uint kind;  /* HIT_* */
-    uint index; /* among spheres, planes or mesh instances */
-    uint prim;  /* meshes: the triangle; surfaces of revolution: the profile segment */
-    float b1, b2; /* meshes: barycentric weights of the triangle's second and third vertex;
-                   * surfaces of revolution: b1 is the segment's parameter u */
+    lfloat t;
+    luint kind;  /* HIT_* */
+    luint index; /* among spheres, planes or mesh instances */
+    luint prim;  /* meshes: the triangle; surfaces of revolution: the profile segment */
+    lfloat b1, b2; /* meshes: barycentric weights of the triangle's second and third vertex;
+                    * surfaces of revolution: b1 is the segment's parameter u */
 } Hit;
 
 /* The surface at a hit, in world space: refined point, its error bound, unit geometric normal
  * (outward), shading normal (interpolated vertex normals on smooth meshes, else n), material,
  * and the point and normal in the object's own space (for texture coordinates). */
 typedef struct Surface {
-    float3 p;
-    float3 p_error;
-    float3 n;
-    float3 ns;
-    float3 p_local;
-    float3 n_local;
-    uint material;
-    uint transform;
+    LFloat3 p;
+    LFloat3 p_error;
+    LFloat3 n;
+    LFloat3 ns;
+    LFloat3 p_local;
+    LFloat3 n_local;
+    luint material;
+    luint transform;
 } Surface;
 
 #if CLPT_MESHES
@@ -116,8 +122,8 @@ inline void mesh_object_intersect(const Scene* sc, uint index, float3 o, float3 
 
 /* The ray in a sphere's or plane's own space, with a unit direction: `scale` is the length
  * of the world's unit direction there, so object-space t = world t * scale. */
-inline void to_object_space(const Scene* sc, uint transform, float3* o, float3* d,
-                            float* scale) {
+inline void to_object_space(const Scene* sc, uint transform, LFloat3* o, LFloat3* d,
+                            lfloat* scale) {
     *scale = 1.0f;
 #if CLPT_TRANSFORMS
     if (transform != TRANSFORM_NONE) {
@@ -132,33 +138,34 @@ inline void to_object_space(const Scene* sc, uint transform, float3* o, float3* 
 
 /* Keeps an object's hit at object-space t, found on a ray whose world unit direction has length
  * `scale` there, when it is nearer than t_max (the nearest hit so far, in that space). */
-inline bool keep_hit(Hit* hit, float t, float t_max, float scale, uint kind, uint index) {
-    if (!(t < t_max)) {
-        return false;
+inline lmask keep_hit(Hit* hit, lfloat t, lfloat t_max, lfloat scale, uint kind, uint index) {
+    const lmask nearer = t < t_max;
+    if (!lane_any(nearer)) {
+        return nearer;
     }
-    hit->t = t / scale;
-    hit->kind = kind;
-    hit->index = index;
-    return true;
+    hit->t = lselect(hit->t, t / scale, nearer);
+    hit->kind = lselect(hit->kind, (luint)(kind), nearer);
+    hit->index = lselect(hit->index, (luint)(index), nearer);
+    return nearer;
 }
 
 #if CLPT_SPHERES
-inline void sphere_object_intersect(const Scene* sc, uint index, float3 o, float3 d, Hit* hit) {
+inline void sphere_object_intersect(const Scene* sc, uint index, LFloat3 o, LFloat3 d, Hit* hit) {
     __global const Sphere* s = &sc->spheres[index];
-    float scale;
+    lfloat scale;
     to_object_space(sc, s->transform, &o, &d, &scale);
-    const float t_max = hit->t * scale;
+    const lfloat t_max = hit->t * scale;
     keep_hit(hit, sphere_intersect(s, o, d, t_max), t_max, scale, HIT_SPHERE, index);
 }
 
 #endif
 
 #if CLPT_PLANES
-inline void plane_object_intersect(const Scene* sc, uint index, float3 o, float3 d, Hit* hit) {
+inline void plane_object_intersect(const Scene* sc, uint index, LFloat3 o, LFloat3 d, Hit* hit) {
     __global const Plane* p = &sc->planes[index];
-    float scale;
+    lfloat scale;
     to_object_space(sc, p->transform, &o, &d, &scale);
-    const float t_max = hit->t * scale;
+    const lfloat t_max = hit->t * scale;
     keep_hit(hit, plane_intersect(p, o, d, t_max), t_max, scale, HIT_PLANE, index);
 }
 #endif
@@ -223,6 +230,7 @@ inline void rev_surface(const Scene* sc, __global const RevSurface* r, Hit hit, 
 }
 #endif
 
+#if CLPT_BVH
 /* A BVH leaf's object, whatever its kind. */
 inline void object_intersect(const Scene* sc, ObjectRef ref, float3 o, float3 d, Hit* hit) {
 #if CLPT_MESHES
@@ -250,19 +258,15 @@ inline void object_intersect(const Scene* sc, ObjectRef ref, float3 o, float3 d,
 #endif
 }
 
-#if CLPT_BVH
 #include "bvh.h"
 #endif
 
 /* The nearest hit of the ray o + t d with t < t_max, or kind HIT_NONE. */
-inline Hit scene_intersect_until(const Scene* sc, float3 o, float3 d, float t_max) {
+inline Hit scene_intersect_until(const Scene* sc, LFloat3 o, LFloat3 d, lfloat t_max) {
     Hit hit;
     hit.t = t_max;
-    hit.kind = HIT_NONE;
-    hit.index = 0u;
-    hit.prim = 0u;
-    hit.b1 = 0.0f;
-    hit.b2 = 0.0f;
+    hit.kind = hit.index = hit.prim = (luint)(HIT_NONE);
+    hit.b1 = hit.b2 = (lfloat)(0.0f);
 #if CLPT_BVH
     bvh_intersect(sc, o, d, &hit);
 #else
@@ -292,10 +296,11 @@ inline Hit scene_intersect_until(const Scene* sc, float3 o, float3 d, float t_ma
 }
 
 /* The nearest hit of the ray o + t d, t > 0. */
-inline Hit scene_intersect(const Scene* sc, float3 o, float3 d) {
-    return scene_intersect_until(sc, o, d, INFINITY);
+inline Hit scene_intersect(const Scene* sc, LFloat3 o, LFloat3 d) {
+    return scene_intersect_until(sc, o, d, (lfloat)(INFINITY));
 }
 
+#if CLPT_MESHES
 /* A mesh hit's surface in the mesh's space: p = b0 v0 + b1 v1 + b2 v2 with pbrt-v4's bound
  * gamma(7) (|b0 v0| + |b1 v1| + |b2 v2|), the face normal, and the interpolated vertex normal
  * turned to the face normal's side when the mesh has normals. */
@@ -319,15 +324,18 @@ inline void mesh_surface(const Scene* sc, __global const MeshDesc* m, Hit hit, f
         }
     }
 }
+#endif
 
-inline Surface scene_surface(const Scene* sc, Hit hit, float3 o, float3 d) {
+/* The surface of object (kind, index) where the rays (o, d) hit it at hit.t. */
+inline Surface object_surface(const Scene* sc, uint kind, uint index, Hit hit, LFloat3 o,
+                              LFloat3 d) {
     Surface s;
     uint transform;
-    float3 lo = o, ld = d;
-    float t = hit.t;
+    LFloat3 lo = o, ld = d;
+    lfloat t = hit.t;
 #if CLPT_MESHES
-    if (hit.kind == HIT_MESH) {
-        __global const MeshInstance* inst = &sc->mesh_instances[hit.index];
+    if (kind == HIT_MESH) {
+        __global const MeshInstance* inst = &sc->mesh_instances[index];
         transform = inst->transform;
         s.material = inst->material;
         mesh_surface(sc, &sc->meshes[inst->mesh], hit, &s.p, &s.p_error, &s.n, &s.ns);
@@ -336,39 +344,39 @@ inline Surface scene_surface(const Scene* sc, Hit hit, float3 o, float3 d) {
     {
         transform = TRANSFORM_NONE;
 #if CLPT_SPHERES
-        if (hit.kind == HIT_SPHERE) {
-            transform = sc->spheres[hit.index].transform;
-            s.material = sc->spheres[hit.index].material;
+        if (kind == HIT_SPHERE) {
+            transform = sc->spheres[index].transform;
+            s.material = sc->spheres[index].material;
         }
 #endif
 #if CLPT_PLANES
-        if (hit.kind == HIT_PLANE) {
-            transform = sc->planes[hit.index].transform;
-            s.material = sc->planes[hit.index].material;
+        if (kind == HIT_PLANE) {
+            transform = sc->planes[index].transform;
+            s.material = sc->planes[index].material;
         }
 #endif
 #if CLPT_REVSURFACES
-        if (hit.kind == HIT_REVSURFACE) {
-            transform = sc->revsurfaces[hit.index].transform;
-            s.material = sc->revsurfaces[hit.index].material;
+        if (kind == HIT_REVSURFACE) {
+            transform = sc->revsurfaces[index].transform;
+            s.material = sc->revsurfaces[index].material;
         }
 #endif
-        float scale;
+        lfloat scale;
         to_object_space(sc, transform, &lo, &ld, &scale);
         t *= scale;
 #if CLPT_SPHERES
-        if (hit.kind == HIT_SPHERE) {
-            sphere_surface(&sc->spheres[hit.index], lo, ld, t, &s.p, &s.n, &s.p_error);
+        if (kind == HIT_SPHERE) {
+            sphere_surface(&sc->spheres[index], lo, ld, t, &s.p, &s.n, &s.p_error);
         }
 #endif
 #if CLPT_PLANES
-        if (hit.kind == HIT_PLANE) {
-            plane_surface(&sc->planes[hit.index], lo, ld, t, &s.p, &s.n, &s.p_error);
+        if (kind == HIT_PLANE) {
+            plane_surface(&sc->planes[index], lo, ld, t, &s.p, &s.n, &s.p_error);
         }
 #endif
 #if CLPT_REVSURFACES
-        if (hit.kind == HIT_REVSURFACE) {
-            rev_surface(sc, &sc->revsurfaces[hit.index], hit, lo + t * ld, &s.p, &s.p_error,
+        if (kind == HIT_REVSURFACE) {
+            rev_surface(sc, &sc->revsurfaces[index], hit, lo + t * ld, &s.p, &s.p_error,
                         &s.n);
         }
 #endif
@@ -388,6 +396,37 @@ inline Surface scene_surface(const Scene* sc, Hit hit, float3 o, float3 d) {
 #endif
     return s;
 }
+
+/* The surface at each lane's hit (rays (o, d)). */
+inline Surface scene_surface(const Scene* sc, Hit hit, LFloat3 o, LFloat3 d) {
+#if CLPT_WIDE
+    /* Lanes that hit one object share its data: one pass per object that some lane hit (a
+     * wide program's few objects: no BVH). Lanes that hit nothing keep zeros. */
+    Surface s;
+    s.p = s.p_error = s.n = s.ns = s.p_local = s.n_local = v3_splat((float3)(0.0f));
+    s.material = s.transform = (luint)(0u);
+    lmask pending = hit.kind != HIT_NONE;
+    while (lane_any(pending)) {
+        const uint lane = lane_first(pending);
+        const uint kind = lane_uint(hit.kind, lane), index = lane_uint(hit.index, lane);
+        const lmask same = pending && hit.kind == kind && hit.index == index;
+        const Surface one = object_surface(sc, kind, index, hit, o, d);
+        s.p = v3_select(s.p, one.p, same);
+        s.p_error = v3_select(s.p_error, one.p_error, same);
+        s.n = v3_select(s.n, one.n, same);
+        s.ns = v3_select(s.ns, one.ns, same);
+        s.p_local = v3_select(s.p_local, one.p_local, same);
+        s.n_local = v3_select(s.n_local, one.n_local, same);
+        s.material = select(s.material, one.material, same);
+        s.transform = select(s.transform, one.transform, same);
+        pending = pending && !same;
+    }
+    return s;
+#else
+    return object_surface(sc, hit.kind, hit.index, hit, o, d);
+#endif
+}
+
 
 #if CLPT_TEXTURES
 /* Where a hit falls on its object's texture: (u, v) and the world directions of increasing u

@@ -9,33 +9,29 @@
 #ifndef CLPT_PLANE_H
 #define CLPT_PLANE_H
 
-inline float plane_intersect(__global const Plane* pl, float3 o, float3 d, float t_max) {
+inline lfloat plane_intersect(__global const Plane* pl, LFloat3 o, LFloat3 d, lfloat t_max) {
     const float3 n = vload3(0, pl->normal);
-    const float denom = dot(n, d);
-    if (!(denom < 0.0f)) {
-        return t_max; /* parallel, or seen from behind */
-    }
-    const float t = (pl->offset - dot(n, o)) / denom;
-    if (!(t > 0.0f && t < t_max)) {
+    const lfloat denom = v3_dot(v3_splat(n), d);
+    const lmask front = denom < 0.0f; /* not parallel, nor seen from behind */
+    if (!lane_any(front)) {
         return t_max;
     }
-    const float3 rel = o + t * d - vload3(0, pl->center);
+    const lfloat t = (pl->offset - v3_dot(v3_splat(n), o)) / denom;
+    const LFloat3 rel = v3_sub(v3_add(o, v3_scale(t, d)), v3_splat(vload3(0, pl->center)));
     const float range = pl->range;
-    if (fabs(rel.x) > range || fabs(rel.y) > range || fabs(rel.z) > range) {
-        return t_max;
-    }
-    return t;
+    const lmask inside = !(fabs(rel.x) > range || fabs(rel.y) > range || fabs(rel.z) > range);
+    return lselect(t_max, t, front && t > 0.0f && t < t_max && inside);
 }
 
 /* The hit point projected onto the plane (so its error does not grow with t), the normal, and
  * a bound on the point's error: the projection carries a few roundings of |p_i| + |offset|. */
-inline void plane_surface(__global const Plane* pl, float3 o, float3 d, float t, float3* p,
-                          float3* n, float3* p_error) {
-    const float3 normal = vload3(0, pl->normal);
-    const float3 raw = o + t * d;
-    *p = raw - (dot(normal, raw) - pl->offset) * normal;
+inline void plane_surface(__global const Plane* pl, LFloat3 o, LFloat3 d, lfloat t, LFloat3* p,
+                          LFloat3* n, LFloat3* p_error) {
+    const LFloat3 normal = v3_splat(vload3(0, pl->normal));
+    const LFloat3 raw = v3_add(o, v3_scale(t, d));
+    *p = v3_sub(raw, v3_scale(v3_dot(normal, raw) - pl->offset, normal));
     *n = normal;
-    *p_error = error_gamma(6.0f) * (fabs(*p) + fabs(pl->offset));
+    *p_error = v3_scale(error_gamma(6.0f), v3_add_s(v3_fabs(*p), fabs(pl->offset)));
 }
 
 #if CLPT_TEXTURES

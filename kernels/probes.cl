@@ -10,6 +10,79 @@
 #include "ray.h"
 #include "camera.h"
 #include "objects.h"
+
+/* The three floats at a + (first + lane) * stride + offset, in each lane. */
+inline LFloat3 probe_load3(__global const float* a, uint first, uint stride, uint offset) {
+#if CLPT_WIDE
+    lfloat x, y, z;
+    for (uint l = 0u; l < CLPT_LANES; ++l) {
+        __global const float* v = a + (first + l) * stride + offset;
+        ((float*)&x)[l] = v[0];
+        ((float*)&y)[l] = v[1];
+        ((float*)&z)[l] = v[2];
+    }
+    return make_lfloat3(x, y, z);
+#else
+    return vload3(0, a + first * stride + offset);
+#endif
+}
+
+/* Lane `lane` of v (a scalar program's v itself). */
+#if CLPT_WIDE
+#define PROBE_LANE(T, v, lane) (((const T*)&(v))[lane])
+#else
+#define PROBE_LANE(T, v, lane) (v)
+#endif
+
+/* Rays first .. first + CLPT_LANES - 1 of a probe's input, 9 floats each (o, d, w), and the
+ * nearest hits of (o, d). */
+inline Hit probe_first_hit(const Scene* sc, __global const float* rays, uint first, LFloat3* o,
+                           LFloat3* d, LFloat3* w) {
+    *o = probe_load3(rays, first, 9u, 0u);
+    *d = probe_load3(rays, first, 9u, 3u);
+    *w = probe_load3(rays, first, 9u, 6u);
+    return scene_intersect(sc, *o, *d);
+}
+
+/* Nearest hit of ray (o, d) and the ray spawned from it towards w: input 9 floats per ray
+ * (o, d, w); output 16 floats: t, kind, index, p[3], n[3], p_error[3], then for the spawned
+ * ray t2, kind2, index2, and the spawn origin's distance from p along n (signed). A work-item
+ * takes CLPT_LANES rays (lanes.h): the geometry tests run the wide programs too. */
+__kernel void probe_hit(SCENE_KERNEL_ARGS, __global const float* rays, __global float* out) {
+    const Scene scene = SCENE_FROM_KERNEL_ARGS;
+    const uint first = get_global_id(0) * CLPT_LANES;
+    LFloat3 o, d, w;
+    const Hit hit = probe_first_hit(&scene, rays, first, &o, &d, &w);
+    const lmask none = hit.kind == HIT_NONE;
+    if (lane_all(none)) {
+        for (int k = 0; k < 16 * CLPT_LANES; ++k) {
+            out[16 * first + k] = k % 16 == 0 ? PROBE_LANE(float, hit.t, k / 16) : 0.0f;
+        }
+        return;
+    }
+    const Surface s = scene_surface(&scene, hit, o, d);
+    const LFloat3 o2 = offset_ray_origin(s.p, s.p_error, s.n, w);
+    const Hit next = scene_intersect(&scene, o2, w);
+    const lfloat along = v3_dot(v3_sub(o2, s.p), s.n);
+    for (uint l = 0u; l < CLPT_LANES; ++l) {
+        __global float* r = out + 16 * (first + l);
+        const float values[16] = {
+            PROBE_LANE(float, hit.t, l),          (float)PROBE_LANE(uint, hit.kind, l),
+            (float)PROBE_LANE(uint, hit.index, l), PROBE_LANE(float, s.p.x, l),
+            PROBE_LANE(float, s.p.y, l),          PROBE_LANE(float, s.p.z, l),
+            PROBE_LANE(float, s.n.x, l),          PROBE_LANE(float, s.n.y, l),
+            PROBE_LANE(float, s.n.z, l),          PROBE_LANE(float, s.p_error.x, l),
+            PROBE_LANE(float, s.p_error.y, l),    PROBE_LANE(float, s.p_error.z, l),
+            PROBE_LANE(float, next.t, l),         (float)PROBE_LANE(uint, next.kind, l),
+            (float)PROBE_LANE(uint, next.index, l), PROBE_LANE(float, along, l)};
+        const bool missed = PROBE_LANE(int, none, l) != 0;
+        for (int k = 0; k < 16; ++k) {
+            r[k] = missed && k >= 3 ? 0.0f : values[k];
+        }
+    }
+}
+
+#if !CLPT_WIDE
 #include "texture.h"
 #include "material.h"
 #include "nee.h"
@@ -22,45 +95,6 @@ __kernel void probe_camera(__global const RenderParams* params, __global const u
     camera_ray(&params->camera, pixel[i].x, pixel[i].y, u[i], &o, &d);
     vstore3(o, 2 * i, out);
     vstore3(d, 2 * i + 1, out);
-}
-
-/* Ray i of a probe's input, 9 floats (o, d, w), and the nearest hit of (o, d). */
-inline Hit probe_first_hit(const Scene* sc, __global const float* rays, uint i, float3* o,
-                           float3* d, float3* w) {
-    *o = vload3(3 * i, rays);
-    *d = vload3(3 * i + 1, rays);
-    *w = vload3(3 * i + 2, rays);
-    return scene_intersect(sc, *o, *d);
-}
-
-/* Nearest hit of ray (o, d) and the ray spawned from it towards w: input 9 floats per ray
- * (o, d, w); output 16 floats: t, kind, index, p[3], n[3], p_error[3], then for the spawned
- * ray t2, kind2, index2, and the spawn origin's distance from p along n (signed). */
-__kernel void probe_hit(SCENE_KERNEL_ARGS, __global const float* rays, __global float* out) {
-    const Scene scene = SCENE_FROM_KERNEL_ARGS;
-    const uint i = get_global_id(0);
-    float3 o, d, w;
-    const Hit hit = probe_first_hit(&scene, rays, i, &o, &d, &w);
-    __global float* r = out + 16 * i;
-    r[0] = hit.t;
-    r[1] = (float)hit.kind;
-    r[2] = (float)hit.index;
-    if (hit.kind == HIT_NONE) {
-        for (int k = 3; k < 16; ++k) {
-            r[k] = 0.0f;
-        }
-        return;
-    }
-    const Surface s = scene_surface(&scene, hit, o, d);
-    vstore3(s.p, 1, r);
-    vstore3(s.n, 2, r);
-    vstore3(s.p_error, 3, r);
-    const float3 o2 = offset_ray_origin(s.p, s.p_error, s.n, w);
-    const Hit next = scene_intersect(&scene, o2, w);
-    r[12] = next.t;
-    r[13] = (float)next.kind;
-    r[14] = (float)next.index;
-    r[15] = dot(o2 - s.p, s.n);
 }
 
 /* A material's trio (material.h): input per work-item its type, 15 floats wo, n, ns, colour and
@@ -229,3 +263,4 @@ __kernel void probe_bezier(__global const float2* points, __global const uint2* 
     bezier_eval(points + segment[i].x, segment[i].y, u[i], &s, &ds);
     out[i] = (float4)(s, ds);
 }
+#endif

@@ -15,32 +15,25 @@
 #define CLPT_SPHERE_H
 
 /* The nearest t in (0, t_max) where o + t d (d unit) meets the sphere, or t_max if none. */
-inline float sphere_intersect(__global const Sphere* s, float3 o, float3 d, float t_max) {
+inline lfloat sphere_intersect(__global const Sphere* s, LFloat3 o, LFloat3 d, lfloat t_max) {
     const float3 center = vload3(0, s->center);
     const float r = s->radius;
-    const float3 f = o - center;
-    const float b = dot(f, d);
-    const float3 perp = f - b * d;
-    const float disc = r * r - dot(perp, perp);
-    if (disc < 0.0f) {
+    const LFloat3 f = v3_sub(o, v3_splat(center));
+    const lfloat b = v3_dot(f, d);
+    const LFloat3 perp = v3_sub(f, v3_scale(b, d));
+    const lfloat disc = r * r - v3_dot(perp, perp);
+    const lmask miss = disc < 0.0f;
+    if (lane_all(miss)) {
         return t_max;
     }
-    const float c = sphere_excess(o, center, vload3(0, s->center_lo), r, s->radius_lo);
-    const float q = -(b + copysign(sqrt(disc), b));
-    float t0 = c / q;
-    float t1 = q;
-    if (t0 > t1) {
-        const float tmp = t0;
-        t0 = t1;
-        t1 = tmp;
-    }
-    if (t0 > 0.0f && t0 < t_max) {
-        return t0;
-    }
-    if (t1 > 0.0f && t1 < t_max) {
-        return t1;
-    }
-    return t_max;
+    const lfloat c = sphere_excess(o, center, vload3(0, s->center_lo), r, s->radius_lo);
+    const lfloat q = -(b + copysign(sqrt(disc), b));
+    const lfloat t0 = c / q, t1 = q;
+    const lmask swap = t0 > t1;
+    const lfloat t_near = lselect(t0, t1, swap), t_far = lselect(t1, t0, swap);
+    const lfloat t = lselect(lselect(t_max, t_far, t_far > 0.0f && t_far < t_max), t_near,
+                             t_near > 0.0f && t_near < t_max);
+    return lselect(t, t_max, miss);
 }
 
 /* The refined hit point, its outward unit normal and a per-component bound on the point's
@@ -48,20 +41,21 @@ inline float sphere_intersect(__global const Sphere* s, float3 o, float3 d, floa
  * distance delta = (|p - c|^2 - r^2) / (|p - c| + r), computed in double-float, so the point's
  * error is a few roundings of its own coordinates (and of delta), not of |c| + r: on smallpt's
  * walls 2e-5 instead of 0.08, which matters where its light is sunk only 0.27 into the ceiling. */
-inline void sphere_surface(__global const Sphere* s, float3 o, float3 d, float t, float3* p,
-                           float3* n, float3* p_error) {
+inline void sphere_surface(__global const Sphere* s, LFloat3 o, LFloat3 d, lfloat t, LFloat3* p,
+                           LFloat3* n, LFloat3* p_error) {
     const float3 center = vload3(0, s->center);
     const float r = s->radius;
-    const float3 raw = o + t * d;
-    const float3 rel = raw - center;
-    const float dist = length(rel);
-    const float3 normal = rel / dist;
-    const float delta =
+    const LFloat3 raw = v3_add(o, v3_scale(t, d));
+    const LFloat3 rel = v3_sub(raw, v3_splat(center));
+    const lfloat dist = v3_length(rel);
+    const LFloat3 normal = v3_div(rel, dist);
+    const lfloat delta =
         sphere_excess(raw, center, vload3(0, s->center_lo), r, s->radius_lo) / (dist + r);
     *n = normal;
-    *p = raw - delta * normal;
+    *p = v3_sub(raw, v3_scale(delta, normal));
     const float u = 0x1.0p-24f;
-    *p_error = error_gamma(4.0f) * (fabs(*p) + fabs(delta)) + 64.0f * u * u * (length(center) + 2.0f * r);
+    *p_error = v3_add_s(v3_scale(error_gamma(4.0f), v3_add_s(v3_fabs(*p), fabs(delta))),
+                        64.0f * u * u * (length(center) + 2.0f * r));
 }
 
 #if CLPT_TEXTURES

@@ -135,98 +135,98 @@ fn sphere_hits_match_f64_and_spawned_rays_never_self_hit() {
     for case in sphere_cases() {
         let scene = common::packed(vec![case.sphere], vec![], vec![Default::default()]);
         let rays = sphere_rays(&case, 100_000, &mut rng);
-        let out = common::probe_hits(&device, &scene, &rays);
-        let s = &case.sphere;
-        let (c, r) = (v3(s.center), s.radius as f64);
-        let (mut compared, mut hits, mut worst_t, mut worst_p) = (0, 0, 0.0f64, 0.0f64);
-        for (input, got) in rays.iter().zip(&out) {
-            let (o, d, w) = parts(input);
-            let f = o - c;
-            let b = f.dot(d);
-            let perp2 = (f - b * d).length_squared();
-            let grazing = (perp2.sqrt() - r).abs() <= 1e-3 * r + 8.0 * EPS * (f.length() + r);
-            let on_surface = (f.length() - r).abs() <= 8.0 * EPS * (c.abs().max_element() + r);
-            let want = reference::sphere_hit(s, o, d, f64::INFINITY);
-            let got_t = (got[1] == 1.0).then_some(got[0] as f64);
-            if !grazing && !on_surface {
-                assert_eq!(
-                    want.is_some(),
-                    got_t.is_some(),
-                    "{}: hit/miss differs for o={o} d={d}: f64 {want:?}, device {got_t:?}",
-                    case.name
+        for lanes in common::LANE_WIDTHS {
+            let out = common::probe_hits_in_lanes(&device, &scene, &rays, lanes);
+            let name = format!("{} ({lanes} lanes)", case.name);
+            let s = &case.sphere;
+            let (c, r) = (v3(s.center), s.radius as f64);
+            let (mut compared, mut hits, mut worst_t, mut worst_p) = (0, 0, 0.0f64, 0.0f64);
+            for (input, got) in rays.iter().zip(&out) {
+                let (o, d, w) = parts(input);
+                let f = o - c;
+                let b = f.dot(d);
+                let perp2 = (f - b * d).length_squared();
+                let grazing = (perp2.sqrt() - r).abs() <= 1e-3 * r + 8.0 * EPS * (f.length() + r);
+                let on_surface = (f.length() - r).abs() <= 8.0 * EPS * (c.abs().max_element() + r);
+                let want = reference::sphere_hit(s, o, d, f64::INFINITY);
+                let got_t = (got[1] == 1.0).then_some(got[0] as f64);
+                if !grazing && !on_surface {
+                    assert_eq!(
+                        want.is_some(),
+                        got_t.is_some(),
+                        "{}: hit/miss differs for o={o} d={d}: f64 {want:?}, device {got_t:?}",
+                        name
+                    );
+                    if let (Some(t64), Some(t32)) = (want, got_t) {
+                        let disc = (r * r - perp2).max(0.0).sqrt();
+                        let tol =
+                            32.0 * EPS * ((f.length_squared() + r * r) / (b.abs() + disc) + t64);
+                        worst_t = worst_t.max((t32 - t64).abs() / tol);
+                        compared += 1;
+                    }
+                }
+                let Some(_) = got_t else { continue };
+                hits += 1;
+                let p = v3([got[3], got[4], got[5]]);
+                let n = v3([got[6], got[7], got[8]]);
+                let p_error = v3([got[9], got[10], got[11]]);
+                // The refined point is within its own bound of the surface.
+                let off_surface = ((p - c).length() - r).abs();
+                let bound = n.abs().dot(p_error);
+                worst_p = worst_p.max(off_surface / bound);
+                assert!(
+                    off_surface <= bound,
+                    "{}: hit point {p} is {off_surface:e} off the surface, bound {bound:e}",
+                    name
                 );
-                if let (Some(t64), Some(t32)) = (want, got_t) {
-                    let disc = (r * r - perp2).max(0.0).sqrt();
-                    let tol = 32.0 * EPS * ((f.length_squared() + r * r) / (b.abs() + disc) + t64);
-                    worst_t = worst_t.max((t32 - t64).abs() / tol);
-                    compared += 1;
+                // p is rounded to f32 near |c|, so the normal is known to about that over r.
+                let n_true = (p - c).normalize();
+                let n_tol = 1e-5 + 16.0 * EPS * (c.abs().max_element() + r) / r;
+                assert!(
+                    (n - n_true).length() < n_tol,
+                    "{}: normal {n} vs {n_true}",
+                    name
+                );
+                // The spawned ray: outward never meets the sphere again; inward meets its far side.
+                let spawn_dist = got[15] as f64;
+                assert!(
+                    spawn_dist.abs() >= bound,
+                    "{}: spawn offset below the bound",
+                    name
+                );
+                let cos = w.dot(n_true);
+                if cos > 0.0 {
+                    assert_eq!(
+                        got[13], 0.0,
+                        "{}: outward ray from {p} re-hit (t={})",
+                        name, got[12]
+                    );
+                } else if cos < -1e-3 {
+                    let chord = 2.0 * r * -cos;
+                    assert_eq!(
+                        got[13], 1.0,
+                        "{}: inward ray from {p} missed the far side",
+                        name
+                    );
+                    assert!(
+                        got[12] as f64 > 0.5 * chord,
+                        "{}: self-hit: inward ray from {p} hit at t={} (chord {chord})",
+                        name,
+                        got[12]
+                    );
                 }
             }
-            let Some(_) = got_t else { continue };
-            hits += 1;
-            let p = v3([got[3], got[4], got[5]]);
-            let n = v3([got[6], got[7], got[8]]);
-            let p_error = v3([got[9], got[10], got[11]]);
-            // The refined point is within its own bound of the surface.
-            let off_surface = ((p - c).length() - r).abs();
-            let bound = n.abs().dot(p_error);
-            worst_p = worst_p.max(off_surface / bound);
             assert!(
-                off_surface <= bound,
-                "{}: hit point {p} is {off_surface:e} off the surface, bound {bound:e}",
-                case.name
+                compared > 30_000 && hits > 30_000,
+                "{}: too few hits tested",
+                name
             );
-            // p is rounded to f32 near |c|, so the normal is known to about that over r.
-            let n_true = (p - c).normalize();
-            let n_tol = 1e-5 + 16.0 * EPS * (c.abs().max_element() + r) / r;
-            assert!(
-                (n - n_true).length() < n_tol,
-                "{}: normal {n} vs {n_true}",
-                case.name
+            eprintln!(
+                "{}: {compared} t compared, worst |dt|/tol {worst_t:.3}; {hits} hits, worst surface distance/bound {worst_p:.3}",
+                name
             );
-            // The spawned ray: outward never meets the sphere again; inward meets its far side.
-            let spawn_dist = got[15] as f64;
-            assert!(
-                spawn_dist.abs() >= bound,
-                "{}: spawn offset below the bound",
-                case.name
-            );
-            let cos = w.dot(n_true);
-            if cos > 0.0 {
-                assert_eq!(
-                    got[13], 0.0,
-                    "{}: outward ray from {p} re-hit (t={})",
-                    case.name, got[12]
-                );
-            } else if cos < -1e-3 {
-                let chord = 2.0 * r * -cos;
-                assert_eq!(
-                    got[13], 1.0,
-                    "{}: inward ray from {p} missed the far side",
-                    case.name
-                );
-                assert!(
-                    got[12] as f64 > 0.5 * chord,
-                    "{}: self-hit: inward ray from {p} hit at t={} (chord {chord})",
-                    case.name,
-                    got[12]
-                );
-            }
+            assert!(worst_t <= 1.0, "{}: t error {worst_t} x tolerance", name);
         }
-        assert!(
-            compared > 30_000 && hits > 30_000,
-            "{}: too few hits tested",
-            case.name
-        );
-        eprintln!(
-            "{}: {compared} t compared, worst |dt|/tol {worst_t:.3}; {hits} hits, worst surface distance/bound {worst_p:.3}",
-            case.name
-        );
-        assert!(
-            worst_t <= 1.0,
-            "{}: t error {worst_t} x tolerance",
-            case.name
-        );
     }
 }
 
@@ -268,49 +268,53 @@ fn plane_hits_match_f64_and_spawned_rays_never_self_hit() {
                 rays.push(ray(o, d, common::random_unit(&mut rng)));
             }
         }
-        let out = common::probe_hits(&device, &scene, &rays);
-        let mut hits = 0;
-        for (input, got) in rays.iter().zip(&out) {
-            let (o, d, w) = parts(input);
-            let want = reference::plane_hit(&scene.planes[0], o, d, f64::INFINITY);
-            let got_t = (got[1] == 2.0).then_some(got[0] as f64);
-            let denom = n.dot(d);
-            let scale = offset.abs() as f64 + o.abs().max_element();
-            // Hits within rounding of the range's edge may go either way.
-            let near_edge = want.or(got_t).is_some_and(|t| {
-                let rel = (o + t * d - center).abs().max_element();
-                (rel - range as f64).abs() <= 1e-5 * (scale + range as f64) / denom.abs().max(1e-9)
-            });
-            if !near_edge {
+        for lanes in common::LANE_WIDTHS {
+            let out = common::probe_hits_in_lanes(&device, &scene, &rays, lanes);
+            let name = format!("{name} ({lanes} lanes)");
+            let mut hits = 0;
+            for (input, got) in rays.iter().zip(&out) {
+                let (o, d, w) = parts(input);
+                let want = reference::plane_hit(&scene.planes[0], o, d, f64::INFINITY);
+                let got_t = (got[1] == 2.0).then_some(got[0] as f64);
+                let denom = n.dot(d);
+                let scale = offset.abs() as f64 + o.abs().max_element();
+                // Hits within rounding of the range's edge may go either way.
+                let near_edge = want.or(got_t).is_some_and(|t| {
+                    let rel = (o + t * d - center).abs().max_element();
+                    (rel - range as f64).abs()
+                        <= 1e-5 * (scale + range as f64) / denom.abs().max(1e-9)
+                });
+                if !near_edge {
+                    assert_eq!(
+                        want.is_some(),
+                        got_t.is_some(),
+                        "{name}: o={o} d={d}: {want:?} vs {got_t:?}"
+                    );
+                }
+                let (Some(t64), Some(t32)) = (want, got_t) else {
+                    continue;
+                };
+                hits += 1;
+                let tol = 16.0 * EPS * (scale / denom.abs() + t64);
+                assert!(
+                    (t32 - t64).abs() <= tol,
+                    "{name}: t {t32} vs {t64} (tol {tol:e})"
+                );
+                let p = v3([got[3], got[4], got[5]]);
+                let p_error = v3([got[9], got[10], got[11]]);
+                let off = (n.dot(p) - offset as f64).abs();
+                assert!(
+                    off <= n.abs().dot(p_error),
+                    "{name}: hit point {off:e} off the plane"
+                );
+                // One-sided: a spawned ray never meets the plane it leaves, on either side.
                 assert_eq!(
-                    want.is_some(),
-                    got_t.is_some(),
-                    "{name}: o={o} d={d}: {want:?} vs {got_t:?}"
+                    got[13], 0.0,
+                    "{name}: ray spawned from {p} towards {w} re-hit the plane"
                 );
             }
-            let (Some(t64), Some(t32)) = (want, got_t) else {
-                continue;
-            };
-            hits += 1;
-            let tol = 16.0 * EPS * (scale / denom.abs() + t64);
-            assert!(
-                (t32 - t64).abs() <= tol,
-                "{name}: t {t32} vs {t64} (tol {tol:e})"
-            );
-            let p = v3([got[3], got[4], got[5]]);
-            let p_error = v3([got[9], got[10], got[11]]);
-            let off = (n.dot(p) - offset as f64).abs();
-            assert!(
-                off <= n.abs().dot(p_error),
-                "{name}: hit point {off:e} off the plane"
-            );
-            // One-sided: a spawned ray never meets the plane it leaves, on either side.
-            assert_eq!(
-                got[13], 0.0,
-                "{name}: ray spawned from {p} towards {w} re-hit the plane"
-            );
+            assert!(hits > 20_000, "{name}: only {hits} hits tested");
         }
-        assert!(hits > 20_000, "{name}: only {hits} hits tested");
     }
 }
 

@@ -9,7 +9,6 @@
 mod common;
 
 use clpt::device::Device;
-use clpt::device::program::{self, KernelSources};
 use ocl::prm::{Float4, Uint2, Uint4};
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
@@ -21,15 +20,7 @@ fn rng_probes(device: &Device, lanes: u32) -> ocl::Program {
     } else {
         vec![("CLPT_LANES", lanes.to_string())]
     };
-    program::build_entry(
-        device,
-        &KernelSources::Embedded,
-        "rng_probes.cl",
-        &defines,
-        None,
-    )
-    .unwrap_or_else(|e| panic!("{e}"))
-    .program
+    common::build_without_warnings(device, "rng_probes.cl", &defines)
 }
 
 #[test]

@@ -173,6 +173,69 @@ pub fn probe_scene_rays(
     rays: &[[f32; 9]],
     width: usize,
 ) -> Vec<f32> {
+    probe_scene_rays_in_lanes(device, scene, kernel_name, rays, width, 1)
+}
+
+/// The lane widths (kernels/lanes.h) whose programs the geometry tests run: the scalar
+/// program's, and the wide programs' of AVX2 and AVX-512.
+pub const LANE_WIDTHS: [u32; 3] = [1, 8, 16];
+
+/// probes.cl built with `lanes` lanes a work-item: above 1, the features a wide program has
+/// (kernels/objects.h: spheres and planes, no transforms, no BVH).
+pub fn probes_in_lanes(device: &Device, lanes: u32) -> ocl::Program {
+    if lanes == 1 {
+        return probes(device);
+    }
+    let mut defines: Vec<(&str, String)> = [
+        "CLPT_MESHES",
+        "CLPT_REVSURFACES",
+        "CLPT_BVH",
+        "CLPT_TRANSFORMS",
+        "CLPT_TEXTURES",
+        "CLPT_THIN_LENS",
+        "CLPT_NEE",
+    ]
+    .iter()
+    .map(|&k| (k, "0".to_string()))
+    .collect();
+    defines.push(("CLPT_WIDE", "1".to_string()));
+    defines.push(("CLPT_LANES", lanes.to_string()));
+    build_without_warnings(device, "probes.cl", &defines)
+}
+
+/// Builds the kernel file `entry` with `defines`, and fails if the compiler warned: a wide
+/// program's mixed-up lane and scalar types (a float* passed for a float8*) build with only a
+/// warning, and then write past their variables.
+pub fn build_without_warnings(
+    device: &Device,
+    entry: &str,
+    defines: &[(&str, String)],
+) -> ocl::Program {
+    let built = program::build_entry(device, &KernelSources::Embedded, entry, defines, None)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let log = built
+        .program
+        .build_info(device.device, ocl::enums::ProgramBuildInfo::BuildLog)
+        .map(|l| l.to_string())
+        .unwrap_or_default();
+    assert!(
+        !log.contains("warning"),
+        "{entry} ({}) built with warnings:\n{}",
+        built.options,
+        built.source.annotate(&log)
+    );
+    built.program
+}
+
+/// As [`probe_scene_rays`], on the program of `lanes` lanes (`rays.len()` a multiple of it).
+pub fn probe_scene_rays_in_lanes(
+    device: &Device,
+    scene: &PackedScene,
+    kernel_name: &str,
+    rays: &[[f32; 9]],
+    width: usize,
+    lanes: u32,
+) -> Vec<f32> {
     let params = scene.params(0, 1, 1, 0);
     let buffers = SceneBuffers::new(device, scene, &params).expect("upload");
     let origin = scene.origin.to_array();
@@ -188,7 +251,7 @@ pub fn probe_scene_rays(
         .collect();
     let input = buffer(device, &flat);
     let out = output::<f32>(device, rays.len() * width);
-    let program = probes(device);
+    let program = probes_in_lanes(device, lanes);
     let mut builder = ocl::Kernel::builder();
     builder
         .program(&program)
@@ -198,7 +261,12 @@ pub fn probe_scene_rays(
         builder.arg(b);
     }
     let kernel = builder.arg(&input).arg(&out).build().expect(kernel_name);
-    run(&kernel, rays.len());
+    assert_eq!(
+        rays.len() % lanes as usize,
+        0,
+        "whole work-items of {lanes} lanes"
+    );
+    run(&kernel, rays.len() / lanes as usize);
     read(&out)
 }
 
@@ -206,8 +274,18 @@ pub fn probe_scene_rays(
 /// towards w. Records as documented in probes.cl (16 floats), the hit point moved back to the
 /// scene's coordinates.
 pub fn probe_hits(device: &Device, scene: &PackedScene, rays: &[[f32; 9]]) -> Vec<[f32; 16]> {
+    probe_hits_in_lanes(device, scene, rays, 1)
+}
+
+/// As [`probe_hits`], on the program of `lanes` lanes a work-item.
+pub fn probe_hits_in_lanes(
+    device: &Device,
+    scene: &PackedScene,
+    rays: &[[f32; 9]],
+    lanes: u32,
+) -> Vec<[f32; 16]> {
     let origin = scene.origin.to_array();
-    probe_scene_rays(device, scene, "probe_hit", rays, 16)
+    probe_scene_rays_in_lanes(device, scene, "probe_hit", rays, 16, lanes)
         .chunks_exact(16)
         .map(|c| {
             let mut hit: [f32; 16] = c.try_into().expect("16 floats");
