@@ -26,19 +26,21 @@
 #define GLASS_IOR 1.5f
 
 /* Cosine-weighted direction about unit n (Malley's method: a uniform disk point lifted). */
-inline float3 sample_cosine_hemisphere(float3 n, float2 u) {
-    const float2 c = sqrt(u.y) * turn(u.x);
-    float3 t, b;
+inline LFloat3 sample_cosine_hemisphere(LFloat3 n, lfloat ux, lfloat uy) {
+    const LFloat2 around = turn(ux);
+    const lfloat radius = sqrt(uy);
+    LFloat3 t, b;
     orthonormal_basis(n, &t, &b);
-    return normalize(t * c.x + b * c.y + n * sqrt(fmax(0.0f, 1.0f - u.y)));
+    return v3_normalize(v3_add(v3_add(v3_scale(radius * around.x, t), v3_scale(radius * around.y, b)),
+                               v3_scale(sqrt(fmax(0.0f, 1.0f - uy)), n)));
 }
 
-inline float3 reflect_about(float3 wo, float3 n) {
-    return 2.0f * dot(wo, n) * n - wo;
+inline LFloat3 reflect_about(LFloat3 wo, LFloat3 n) {
+    return v3_sub(v3_scale(2.0f * v3_dot(wo, n), n), wo);
 }
 
 /* Whether material `type` scatters into a single direction (mirror, glass): a delta lobe. */
-inline bool bsdf_is_delta(uint type) {
+inline lmask bsdf_is_delta(luint type) {
     return type == MATERIAL_SPECULAR || type == MATERIAL_REFRACTIVE;
 }
 
@@ -47,13 +49,12 @@ inline bool bsdf_is_delta(uint type) {
  * plus that of the direction mirrored into wi across the geometric surface. The branch returns
  * the weight `color`, so its f cos is color times this density, whatever the shading normal.
  * With facing == facing_g the mirrored term is 0 and this is pbrt's cos / pi. */
-inline float diffuse_pdf(float3 wi, float3 facing, float3 facing_g) {
-    const float side = dot(wi, facing_g);
-    if (!(side > 0.0f)) {
-        return 0.0f;
-    }
-    const float3 mirrored = wi - 2.0f * side * facing_g;
-    return (fmax(0.0f, dot(wi, facing)) + fmax(0.0f, dot(mirrored, facing))) * M_1_PI_F;
+inline lfloat diffuse_pdf(LFloat3 wi, LFloat3 facing, LFloat3 facing_g) {
+    const lfloat side = v3_dot(wi, facing_g);
+    const LFloat3 mirrored = v3_sub(wi, v3_scale(2.0f * side, facing_g));
+    return lselect((lfloat)(0.0f),
+                   (fmax(0.0f, v3_dot(wi, facing)) + fmax(0.0f, v3_dot(mirrored, facing))) * M_1_PI_F,
+                   side > 0.0f);
 }
 
 #if CLPT_NEE
@@ -62,19 +63,18 @@ inline float diffuse_pdf(float3 wi, float3 facing, float3 facing_g) {
 
 /* The solid-angle density with which bsdf_sample returns wi for a path arriving from wo: 0 for
  * a delta lobe (no density; bsdf_sample reports the lobe's probability instead). */
-inline float bsdf_pdf(uint type, float3 wo, float3 wi, float3 n, float3 ns) {
-    if (bsdf_is_delta(type)) {
-        return 0.0f;
-    }
+inline lfloat bsdf_pdf(luint type, LFloat3 wo, LFloat3 wi, LFloat3 n, LFloat3 ns) {
     /* The side the path arrived on, by the geometric normal; the shading normal turned to it. */
-    const bool front = dot(wo, n) >= 0.0f;
-    return diffuse_pdf(wi, front ? ns : -ns, front ? n : -n);
+    const lmask front = v3_dot(wo, n) >= 0.0f;
+    return lselect(diffuse_pdf(wi, v3_select(v3_neg(ns), ns, front), v3_select(v3_neg(n), n, front)),
+                   (lfloat)(0.0f), bsdf_is_delta(type));
 }
 
 /* f cos for the pair (wo, wi): 0 for a delta lobe. Diffuse: the colour times bsdf_pdf, since
  * the sampler's weight f cos / pdf is the colour. */
-inline float3 bsdf_eval(uint type, float3 color, float3 wo, float3 wi, float3 n, float3 ns) {
-    return bsdf_is_delta(type) ? (float3)(0.0f) : color * bsdf_pdf(type, wo, wi, n, ns);
+inline LFloat3 bsdf_eval(luint type, LFloat3 color, LFloat3 wo, LFloat3 wi, LFloat3 n, LFloat3 ns) {
+    return v3_select(v3_scale(bsdf_pdf(type, wo, wi, n, ns), color), v3_splat((float3)(0.0f)),
+                     bsdf_is_delta(type));
 }
 #endif
 
@@ -82,53 +82,57 @@ inline float3 bsdf_eval(uint type, float3 color, float3 wo, float3 wi, float3 n,
  * f cos / pdf, sets *pdf to bsdf_pdf(wi) (for a delta lobe: the probability of the lobe taken,
  * 1 for a mirror or total internal reflection, Schlick's F or 1 - F for glass) and *is_delta.
  * u.xy: direction, u.z: reflect or refract. */
-inline float3 bsdf_sample(uint type, float3 color, float3 wo, float3 n, float3 ns, float4 u,
-                          float3* wi, float* pdf, bool* is_delta) {
-    const float cos_o = dot(wo, n);
+inline LFloat3 bsdf_sample(luint type, LFloat3 color, LFloat3 wo, LFloat3 n, LFloat3 ns, LFloat4 u,
+                           LFloat3* wi, lfloat* pdf, lmask* is_delta) {
+    const lfloat cos_o = v3_dot(wo, n);
     /* The side the path arrived on (by the geometric normal), and the shading normal turned to
      * it: diffuse and mirror surfaces scatter back to that side. */
-    const float3 facing_g = cos_o >= 0.0f ? n : -n;
-    const float3 facing = cos_o >= 0.0f ? ns : -ns;
-    float3 dir;
-    bool transmitted = false;
-    float lobe = 1.0f; /* the probability of the delta lobe taken */
-    if (type == MATERIAL_SPECULAR) {
-        dir = reflect_about(wo, facing);
-    } else if (type == MATERIAL_REFRACTIVE) {
-        const bool entering = cos_o > 0.0f;
-        const float eta = entering ? 1.0f / GLASS_IOR : GLASS_IOR; /* eta_i / eta_t */
-        const float cos_i = fabs(dot(wo, facing));
-        const float sin2_t = eta * eta * fmax(0.0f, 1.0f - cos_i * cos_i);
-        dir = reflect_about(wo, facing);
-        if (sin2_t < 1.0f) { /* else total internal reflection */
-            const float cos_t = sqrt(1.0f - sin2_t);
-            /* Schlick with the cosine on the optically thinner side, as smallpt. */
-            const float r0 = ((GLASS_IOR - 1.0f) * (GLASS_IOR - 1.0f)) /
-                             ((GLASS_IOR + 1.0f) * (GLASS_IOR + 1.0f));
-            const float c = 1.0f - (entering ? cos_i : cos_t);
-            const float c2 = c * c;
-            const float fresnel = r0 + (1.0f - r0) * c2 * c2 * c;
-            lobe = fresnel;
-            if (u.z >= fresnel) {
-                dir = normalize(-wo * eta + facing * (eta * cos_i - cos_t));
-                transmitted = true;
-                lobe = 1.0f - fresnel;
-            }
+    const LFloat3 facing_g = v3_select(v3_neg(n), n, cos_o >= 0.0f);
+    const LFloat3 facing = v3_select(v3_neg(ns), ns, cos_o >= 0.0f);
+    const lmask glass = type == MATERIAL_REFRACTIVE;
+    *is_delta = bsdf_is_delta(type);
+    LFloat3 dir = facing; /* each lane takes its lobe's below */
+    lmask transmitted = !LANE_TRUE;
+    lfloat lobe = 1.0f; /* the probability of the delta lobe taken */
+    if (lane_any(*is_delta)) {
+        dir = v3_select(dir, reflect_about(wo, facing), *is_delta);
+    }
+    if (lane_any(glass)) {
+        const lmask entering = cos_o > 0.0f;
+        const lfloat eta = lselect((lfloat)(GLASS_IOR), (lfloat)(1.0f / GLASS_IOR), entering); /* eta_i / eta_t */
+        const lfloat cos_i = fabs(v3_dot(wo, facing));
+        const lfloat sin2_t = eta * eta * fmax(0.0f, 1.0f - cos_i * cos_i);
+        const lmask passes = glass && sin2_t < 1.0f; /* else total internal reflection */
+        const lfloat cos_t = sqrt(1.0f - sin2_t);
+        /* Schlick with the cosine on the optically thinner side, as smallpt. */
+        const float r0 = ((GLASS_IOR - 1.0f) * (GLASS_IOR - 1.0f)) /
+                         ((GLASS_IOR + 1.0f) * (GLASS_IOR + 1.0f));
+        const lfloat c = 1.0f - lselect(cos_t, cos_i, entering);
+        const lfloat c2 = c * c;
+        const lfloat fresnel = r0 + (1.0f - r0) * c2 * c2 * c;
+        lobe = lselect(lobe, fresnel, passes);
+        transmitted = passes && u.z >= fresnel;
+        if (lane_any(transmitted)) {
+            const LFloat3 refracted = v3_normalize(
+                v3_add(v3_scale(-eta, wo), v3_scale(eta * cos_i - cos_t, facing)));
+            dir = v3_select(dir, refracted, transmitted);
+            lobe = lselect(lobe, 1.0f - fresnel, transmitted);
         }
-    } else {
-        dir = sample_cosine_hemisphere(facing, u.xy);
+    }
+    if (!lane_all(*is_delta)) {
+        dir = v3_select(sample_cosine_hemisphere(facing, u.x, u.y), dir, *is_delta);
     }
     /* A bent shading normal can send a reflection below the surface or a transmission back
      * above it: mirror such a direction across the geometric surface, so no path leaks
      * through and no energy is lost (diffuse_pdf counts the mirrored directions). Without a
      * bump map this never happens. */
-    const float side = dot(dir, facing_g);
-    if (transmitted ? side > 0.0f : side < 0.0f) {
-        dir -= 2.0f * side * facing_g;
+    const lfloat side = v3_dot(dir, facing_g);
+    const lmask flip = lselect(side < 0.0f, side > 0.0f, transmitted);
+    if (lane_any(flip)) {
+        dir = v3_select(dir, v3_sub(dir, v3_scale(2.0f * side, facing_g)), flip);
     }
     *wi = dir;
-    *is_delta = bsdf_is_delta(type);
-    *pdf = *is_delta ? lobe : diffuse_pdf(dir, facing, facing_g);
+    *pdf = lselect(diffuse_pdf(dir, facing, facing_g), lobe, *is_delta);
     return color;
 }
 

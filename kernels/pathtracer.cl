@@ -147,7 +147,7 @@ inline bool path_bounce(const Scene* sc, Path* p) {
 #endif
     float3 wi;
     float pdf;
-    bool is_delta;
+    lmask is_delta;
     p->throughput *= bsdf_sample(sm.type, sm.color, -d, s.n, sm.shading_normal, u, &wi, &pdf,
                                  &is_delta);
 #if CLPT_NEE

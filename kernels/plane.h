@@ -17,10 +17,14 @@ inline lfloat plane_intersect(__global const Plane* pl, LFloat3 o, LFloat3 d, lf
         return t_max;
     }
     const lfloat t = (pl->offset - v3_dot(v3_splat(n), o)) / denom;
+    const lmask nearer = front && t > 0.0f && t < t_max;
+    if (!lane_any(nearer)) {
+        return t_max; /* most planes lie behind the nearest hit so far */
+    }
     const LFloat3 rel = v3_sub(v3_add(o, v3_scale(t, d)), v3_splat(vload3(0, pl->center)));
     const float range = pl->range;
     const lmask inside = !(fabs(rel.x) > range || fabs(rel.y) > range || fabs(rel.z) > range);
-    return lselect(t_max, t, front && t > 0.0f && t < t_max && inside);
+    return lselect(t_max, t, nearer && inside);
 }
 
 /* The hit point projected onto the plane (so its error does not grow with t), the normal, and

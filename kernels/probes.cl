@@ -10,6 +10,7 @@
 #include "ray.h"
 #include "camera.h"
 #include "objects.h"
+#include "material.h"
 
 /* The three floats at a + (first + lane) * stride + offset, in each lane. */
 inline LFloat3 probe_load3(__global const float* a, uint first, uint stride, uint offset) {
@@ -30,8 +31,10 @@ inline LFloat3 probe_load3(__global const float* a, uint first, uint stride, uin
 /* Lane `lane` of v (a scalar program's v itself). */
 #if CLPT_WIDE
 #define PROBE_LANE(T, v, lane) (((const T*)&(v))[lane])
+#define PROBE_LANE_SET(T, v, lane, x) (((T*)&(v))[lane] = (x))
 #else
 #define PROBE_LANE(T, v, lane) (v)
+#define PROBE_LANE_SET(T, v, lane, x) ((v) = (x))
 #endif
 
 /* Rays first .. first + CLPT_LANES - 1 of a probe's input, 9 floats each (o, d, w), and the
@@ -82,9 +85,69 @@ __kernel void probe_hit(SCENE_KERNEL_ARGS, __global const float* rays, __global 
     }
 }
 
+/* The four floats at a + (first + lane) * 4, in each lane. */
+inline LFloat4 probe_load4(__global const float4* a, uint first) {
+#if CLPT_WIDE
+    lfloat x, y, z, w;
+    for (uint l = 0u; l < CLPT_LANES; ++l) {
+        const float4 v = a[first + l];
+        ((float*)&x)[l] = v.x;
+        ((float*)&y)[l] = v.y;
+        ((float*)&z)[l] = v.z;
+        ((float*)&w)[l] = v.w;
+    }
+    return make_lfloat4(x, y, z, w);
+#else
+    return a[first];
+#endif
+}
+
+/* Writes lane `lane` of v to r[0..2]. */
+inline void probe_store3(LFloat3 v, uint lane, __global float* r) {
+    r[0] = PROBE_LANE(float, v.x, lane);
+    r[1] = PROBE_LANE(float, v.y, lane);
+    r[2] = PROBE_LANE(float, v.z, lane);
+}
+
+/* A material's trio (material.h): input per sample its type, 15 floats wo, n, ns, colour and
+ * a direction w, and four uniforms; output 16 floats: bsdf_sample's wi, weight, pdf and
+ * is_delta (1 or 0), then bsdf_eval and bsdf_pdf at that wi, then at w. A work-item takes
+ * CLPT_LANES samples. */
+__kernel void probe_bsdf(__global const uint* type, __global const float* frames,
+                         __global const float4* u, __global float* out) {
+    const uint first = get_global_id(0) * CLPT_LANES;
+    const LFloat3 wo = probe_load3(frames, first, 15u, 0u);
+    const LFloat3 n = probe_load3(frames, first, 15u, 3u);
+    const LFloat3 ns = probe_load3(frames, first, 15u, 6u);
+    const LFloat3 color = probe_load3(frames, first, 15u, 9u);
+    const LFloat3 w = probe_load3(frames, first, 15u, 12u);
+    luint t;
+    for (uint l = 0u; l < CLPT_LANES; ++l) {
+        PROBE_LANE_SET(uint, t, l, type[first + l]);
+    }
+    LFloat3 wi;
+    lfloat pdf;
+    lmask is_delta;
+    const LFloat3 weight = bsdf_sample(t, color, wo, n, ns, probe_load4(u, first), &wi, &pdf, &is_delta);
+    const LFloat3 eval_wi = bsdf_eval(t, color, wo, wi, n, ns);
+    const lfloat pdf_wi = bsdf_pdf(t, wo, wi, n, ns);
+    const LFloat3 eval_w = bsdf_eval(t, color, wo, w, n, ns);
+    const lfloat pdf_w = bsdf_pdf(t, wo, w, n, ns);
+    for (uint l = 0u; l < CLPT_LANES; ++l) {
+        __global float* r = out + 16 * (first + l);
+        probe_store3(wi, l, r);
+        probe_store3(weight, l, r + 3);
+        r[6] = PROBE_LANE(float, pdf, l);
+        r[7] = PROBE_LANE(int, is_delta, l) ? 1.0f : 0.0f;
+        probe_store3(eval_wi, l, r + 8);
+        r[11] = PROBE_LANE(float, pdf_wi, l);
+        probe_store3(eval_w, l, r + 12);
+        r[15] = PROBE_LANE(float, pdf_w, l);
+    }
+}
+
 #if !CLPT_WIDE
 #include "texture.h"
-#include "material.h"
 #include "nee.h"
 
 /* Primary rays: input (px, py, -, -) and four uniforms; output origin and direction. */
@@ -95,33 +158,6 @@ __kernel void probe_camera(__global const RenderParams* params, __global const u
     camera_ray(&params->camera, pixel[i].x, pixel[i].y, u[i], &o, &d);
     vstore3(o, 2 * i, out);
     vstore3(d, 2 * i + 1, out);
-}
-
-/* A material's trio (material.h): input per work-item its type, 15 floats wo, n, ns, colour and
- * a direction w, and four uniforms; output 16 floats: bsdf_sample's wi, weight, pdf and
- * is_delta (1 or 0), then bsdf_eval and bsdf_pdf at that wi, then at w. */
-__kernel void probe_bsdf(__global const uint* type, __global const float* frames,
-                         __global const float4* u, __global float* out) {
-    const uint i = get_global_id(0);
-    const float3 wo = vload3(5 * i, frames);
-    const float3 n = vload3(5 * i + 1, frames);
-    const float3 ns = vload3(5 * i + 2, frames);
-    const float3 color = vload3(5 * i + 3, frames);
-    const float3 w = vload3(5 * i + 4, frames);
-    const uint t = type[i];
-    float3 wi;
-    float pdf;
-    bool is_delta;
-    const float3 weight = bsdf_sample(t, color, wo, n, ns, u[i], &wi, &pdf, &is_delta);
-    __global float* r = out + 16 * i;
-    vstore3(wi, 0, r);
-    vstore3(weight, 1, r);
-    r[6] = pdf;
-    r[7] = is_delta ? 1.0f : 0.0f;
-    vstore3(bsdf_eval(t, color, wo, wi, n, ns), 0, r + 8);
-    r[11] = bsdf_pdf(t, wo, wi, n, ns);
-    vstore3(bsdf_eval(t, color, wo, w, n, ns), 0, r + 12);
-    r[15] = bsdf_pdf(t, wo, w, n, ns);
 }
 
 /* A ray spawned off the first hit of (o, d), into the side the ray came from, towards w given

@@ -13,6 +13,8 @@
 //! - The delta lobes, apart: mirror directions are exact reflections; glass reflects with
 //!   Schlick's Fresnel probability (a binomial Z-test) and reports it as the lobe's pdf, refracts
 //!   by Snell's law, and reflects totally past the critical angle. Every weight is the colour.
+//! - The programs of 8 and 16 lanes a work-item (kernels/lanes.h) give the scalar program's
+//!   records, lanes of all three materials mixed, to within a few roundings.
 
 mod common;
 
@@ -55,8 +57,14 @@ struct Record {
 impl Probes {
     /// Runs probe_bsdf on material `kind` for each query with its four uniforms.
     fn bsdf(&self, kind: u32, queries: &[Query], u: &[[f32; 4]]) -> Vec<Record> {
+        self.bsdf_kinds(&vec![kind; queries.len()], queries, u)
+    }
+
+    /// Runs probe_bsdf on material `kinds[i]` for query i with its four uniforms (a multiple of
+    /// the program's lanes).
+    fn bsdf_kinds(&self, kinds: &[u32], queries: &[Query], u: &[[f32; 4]]) -> Vec<Record> {
         assert_eq!(queries.len(), u.len());
-        let kinds = vec![kind; queries.len()];
+        assert_eq!(queries.len() % self.lanes as usize, 0);
         let flat: Vec<f32> = queries
             .iter()
             .flat_map(|q| [q.wo, q.n, q.ns, COLOR, q.w].map(|v| v.as_vec3().to_array()))
@@ -64,7 +72,7 @@ impl Probes {
             .collect();
         let u: Vec<Float4> = u.iter().map(|v| Float4::from(*v)).collect();
         let (kb, fb, ub) = (
-            common::buffer(&self.device, &kinds),
+            common::buffer(&self.device, kinds),
             common::buffer(&self.device, &flat),
             common::buffer(&self.device, &u),
         );
@@ -79,7 +87,7 @@ impl Probes {
             .arg(&out)
             .build()
             .unwrap();
-        common::run(&kernel, queries.len());
+        common::run(&kernel, queries.len() / self.lanes as usize);
         common::read(&out)
             .chunks_exact(16)
             .map(|c| {
@@ -403,6 +411,53 @@ fn glass_follows_fresnel_and_snell() {
             assert!(
                 z.abs() < 5.0,
                 "entering {entering}, cos_i {cos_i}: reflected {frac:.4}, Schlick {p:.4}, z {z:.2}"
+            );
+        }
+    }
+}
+
+#[test]
+fn wide_programs_sample_as_the_scalar_program() {
+    let mut rng = SmallRng::seed_from_u64(77);
+    let count = 4096;
+    let kinds: Vec<u32> = (0..count)
+        .map(|i| [MATERIAL_DIFFUSE, MATERIAL_SPECULAR, MATERIAL_REFRACTIVE][(i * 7 / 3) % 3])
+        .collect();
+    let queries: Vec<Query> = (0..count)
+        .map(|i| {
+            let n = common::random_unit(&mut rng);
+            // Every other query under a bent shading normal.
+            let ns = if i % 2 == 0 {
+                n
+            } else {
+                (n + 0.4 * common::random_unit(&mut rng)).normalize()
+            };
+            Query {
+                wo: common::random_unit(&mut rng),
+                n,
+                ns,
+                w: common::random_unit(&mut rng),
+            }
+        })
+        .collect();
+    let u = uniforms(&mut rng, count);
+    let scalar = Probes::new().bsdf_kinds(&kinds, &queries, &u);
+    for lanes in [8, 16] {
+        let wide = Probes::in_lanes(lanes).bsdf_kinds(&kinds, &queries, &u);
+        for (i, (a, b)) in scalar.iter().zip(&wide).enumerate() {
+            let close = |x: f64, y: f64| (x - y).abs() <= 1e-5 * (1.0 + x.abs().max(y.abs()));
+            let close3 = |x: DVec3, y: DVec3| (0..3).all(|k| close(x[k], y[k]));
+            assert!(
+                a.is_delta == b.is_delta
+                    && close3(a.wi, b.wi)
+                    && close3(a.weight, b.weight)
+                    && close(a.pdf, b.pdf)
+                    && close3(a.eval_wi, b.eval_wi)
+                    && close(a.pdf_wi, b.pdf_wi)
+                    && close3(a.eval_w, b.eval_w)
+                    && close(a.pdf_w, b.pdf_w),
+                "{lanes} lanes, query {i} (material {}): {b:?}, the scalar program {a:?}",
+                kinds[i]
             );
         }
     }

@@ -66,13 +66,25 @@ pub fn probes(device: &Device) -> ocl::Program {
 pub struct Probes {
     pub device: Device,
     pub program: ocl::Program,
+    /// Lanes a work-item (kernels/lanes.h): probes that take them run `items / lanes`
+    /// work-items.
+    pub lanes: u32,
 }
 
 impl Probes {
     pub fn new() -> Probes {
+        Probes::in_lanes(1)
+    }
+
+    /// The probes of the program of `lanes` lanes a work-item ([`probes_in_lanes`]).
+    pub fn in_lanes(lanes: u32) -> Probes {
         let device = device();
-        let program = probes(&device);
-        Probes { device, program }
+        let program = probes_in_lanes(&device, lanes);
+        Probes {
+            device,
+            program,
+            lanes,
+        }
     }
 }
 
@@ -193,7 +205,6 @@ pub fn probes_in_lanes(device: &Device, lanes: u32) -> ocl::Program {
         "CLPT_TRANSFORMS",
         "CLPT_TEXTURES",
         "CLPT_THIN_LENS",
-        "CLPT_NEE",
     ]
     .iter()
     .map(|&k| (k, "0".to_string()))
