@@ -41,12 +41,13 @@ inline LFloat2 concentric_disk(lfloat ux, lfloat uy) {
 /* The primary ray for pixel (px, py) from four uniform numbers: u.xy pick the sub-pixel (u < 1/2
  * the first) and jitter the image point inside it, u.zw pick the lens point. 2u - s is exact
  * in floating point, so the jitter's number stays uniform. */
-inline void camera_ray(__global const Camera* cam, uint px, uint py, LFloat4 u, LFloat3* origin,
+inline void camera_ray(__global const Camera* cam, luint px, uint py, LFloat4 u, LFloat3* origin,
                        LFloat3* direction) {
     const lfloat sx = lselect((lfloat)(1.0f), (lfloat)(0.0f), u.x < 0.5f);
     const lfloat sy = lselect((lfloat)(1.0f), (lfloat)(0.0f), u.y < 0.5f);
     const lfloat fx =
-        (((sx + 0.5f + tent(2.0f * u.x - sx)) * 0.5f + (float)px) / (float)cam->width) - 0.5f;
+        (((sx + 0.5f + tent(2.0f * u.x - sx)) * 0.5f + LANE_CONVERT(float, px)) / (float)cam->width) -
+        0.5f;
     const lfloat fy =
         (((sy + 0.5f + tent(2.0f * u.y - sy)) * 0.5f + (float)py) / (float)cam->height) - 0.5f;
     const float3 forward = vload3(0, cam->forward);

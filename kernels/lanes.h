@@ -35,6 +35,7 @@ typedef LANE_TYPE(float) lfloat;
 typedef LANE_TYPE(uint) luint;
 typedef LANE_TYPE(ulong) lulong;
 typedef LANE_TYPE(int) lmask;
+typedef LANE_TYPE(int) lint;
 typedef struct LFloat2 {
     lfloat x, y;
 } LFloat2;
@@ -66,6 +67,23 @@ inline LUint4 select_luint4(LUint4 a, LUint4 b, lmask m) {
 inline uint lane_uint(luint v, uint lane) {
     return ((const uint*)&v)[lane];
 }
+inline float lane_float(lfloat v, uint lane) {
+    return ((const float*)&v)[lane];
+}
+inline void lane_set_float(lfloat* v, uint lane, float x) {
+    ((float*)v)[lane] = x;
+}
+inline void lane_set_uint(luint* v, uint lane, uint x) {
+    ((uint*)v)[lane] = x;
+}
+/* The lanes where m is true. */
+inline uint popcount_mask(lmask m) {
+    uint n = 0u;
+    for (uint l = 0u; l < CLPT_LANES; ++l) {
+        n += ((const int*)&m)[l] != 0;
+    }
+    return n;
+}
 inline uint lane_first(lmask m) {
     uint lane = 0u;
     while (((const int*)&m)[lane] == 0) {
@@ -73,8 +91,22 @@ inline uint lane_first(lmask m) {
     }
     return lane;
 }
-#define lane_any(m) any(m)
-#define lane_all(m) all(m)
+/* Whether any (all) lanes of a mask are true: masks are all bits or none, so an OR (AND) of
+ * its 64-bit halves folded down to one word tells; PoCL's any() and all() test the lanes one
+ * by one, about 15 instructions, and a bounce asks a dozen times. */
+#if CLPT_LANES == 4
+#define LANE_FOLD(op, m) \
+    ({ const ulong2 f2_ = as_ulong2(m); f2_.x op f2_.y; })
+#elif CLPT_LANES == 8
+#define LANE_FOLD(op, m) \
+    ({ const ulong4 f4_ = as_ulong4(m); const ulong2 f2_ = f4_.lo op f4_.hi; f2_.x op f2_.y; })
+#else
+#define LANE_FOLD(op, m)                                                                      \
+    ({ const ulong8 f8_ = as_ulong8(m); const ulong4 f4_ = f8_.lo op f8_.hi;                  \
+       const ulong2 f2_ = f4_.lo op f4_.hi; f2_.x op f2_.y; })
+#endif
+#define lane_any(m) (LANE_FOLD(|, (m)) != 0ul)
+#define lane_all(m) (LANE_FOLD(&, (m)) == ~0ul)
 #define LANE_TRUE ((lmask)(-1))
 #if CLPT_LANES == 4
 #define LANE_INDEX ((uint4)(0u, 1u, 2u, 3u))
@@ -90,6 +122,7 @@ typedef float lfloat;
 typedef uint luint;
 typedef ulong lulong;
 typedef int lmask;
+typedef int lint;
 typedef float2 LFloat2;
 typedef float4 LFloat4;
 typedef uint4 LUint4;

@@ -30,24 +30,43 @@
 #if CLPT_NEE
 #include "nee.h"
 #endif
+#if CLPT_WIDE && (CLPT_TEXTURES || CLPT_REGENERATE)
+#error "a wide program (CLPT_WIDE) traces paths without textures or the warp vote"
+#endif
 
 #define RR_MAX_SURVIVAL 0.95f
 
 /* What a material is at one surface point: its plain values, or its maps' values there. */
 typedef struct SurfaceMaterial {
-    float3 emission;
-    float3 color;
-    float3 shading_normal;
-    uint type;
+    LFloat3 emission;
+    LFloat3 color;
+    LFloat3 shading_normal;
+    luint type;
 } SurfaceMaterial;
 
 inline SurfaceMaterial material_at(const Scene* sc, Hit hit, Surface s) {
-    __global const Material* m = &sc->materials[s.material];
     SurfaceMaterial sm;
+    sm.shading_normal = s.ns;
+#if CLPT_WIDE
+    /* One pass per material some lane has (a scene has few). */
+    sm.emission = sm.color = v3_splat((float3)(0.0f));
+    sm.type = (luint)(0u);
+    lmask pending = LANE_TRUE;
+    while (lane_any(pending)) {
+        const uint index = lane_uint(s.material, lane_first(pending));
+        const lmask same = pending && s.material == index;
+        __global const Material* m = &sc->materials[index];
+        sm.emission = v3_select(sm.emission, v3_splat(vload3(0, m->emission)), same);
+        sm.color = v3_select(sm.color, v3_splat(vload3(0, m->color)), same);
+        sm.type = select(sm.type, (luint)(m->type), same);
+        pending = pending && !same;
+    }
+#else
+    __global const Material* m = &sc->materials[s.material];
     sm.emission = vload3(0, m->emission);
     sm.color = vload3(0, m->color);
-    sm.shading_normal = s.ns;
     sm.type = m->type;
+#endif
 #if CLPT_TEXTURES
     if ((m->color_map & m->emission_map & m->type_map & m->bump_map) == MAP_NONE) {
         return sm; /* no maps */
@@ -77,85 +96,122 @@ inline SurfaceMaterial material_at(const Scene* sc, Hit hit, Surface s) {
  * its path ends (see there for why). */
 typedef struct Path {
     Rng rng;
-    float3 o, d, radiance, throughput; /* the ray to trace next; the sums so far */
-    uint depth;
+    LFloat3 o, d, radiance, throughput; /* the ray to trace next; the sums so far */
+    luint depth;
 #if CLPT_NEE
-    bool sampled_light; /* the previous vertex sampled a light too (nee.h) */
-    float3 prev_p;
-    float prev_pdf;
-    uint prev_light;      /* the entry it picked, and its density there if the same at every */
-    float prev_light_pdf; /* direction, else 0 (nee.h emission_weight) */
+    lmask sampled_light; /* the previous vertex sampled a light too (nee.h) */
+    LFloat3 prev_p;
+    lfloat prev_pdf;
+    luint prev_light;      /* the entry it picked, and its density there if the same at every */
+    lfloat prev_light_pdf; /* direction, else 0 (nee.h emission_weight) */
 #endif
 } Path;
 
-/* The path of sample index `sample` through pixel (px, py): its random numbers and camera ray. */
-inline Path path_start(const Scene* sc, uint px, uint py, uint sample) {
+/* The path of sample index `sample` (each lane's) through pixel (px, py): its random numbers
+ * and camera ray. */
+inline Path path_start(const Scene* sc, luint px, uint py, luint sample) {
     __global const RenderParams* params = sc->params;
     Path p;
     p.rng = rng_for_path(params->seed_lo, params->seed_hi, py * params->camera.width + px, sample);
     camera_ray(&params->camera, px, py, rng_next4(&p.rng), &p.o, &p.d);
-    p.radiance = (float3)(0.0f);
-    p.throughput = (float3)(1.0f);
-    p.depth = 0u;
+    p.radiance = v3_splat((float3)(0.0f));
+    p.throughput = v3_splat((float3)(1.0f));
+    p.depth = (luint)(0u);
 #if CLPT_NEE
-    p.sampled_light = false;
-    p.prev_p = (float3)(0.0f);
+    p.sampled_light = !LANE_TRUE;
+    p.prev_p = v3_splat((float3)(0.0f));
     p.prev_pdf = 0.0f;
-    p.prev_light = 0u;
+    p.prev_light = (luint)(0u);
     p.prev_light_pdf = 0.0f;
 #endif
     return p;
 }
 
-/* One vertex of path p: traces its ray, adds the emission found there (and, with light
- * sampling, a light sample), scatters, and plays roulette. Returns whether the path goes on;
- * when it does not, p->radiance is the sample's value. */
-inline bool path_bounce(const Scene* sc, Path* p) {
+#if CLPT_WIDE
+/* The lanes m of p taken from q. */
+inline void path_select(Path* p, Path q, lmask m) {
+    p->rng.pixel = select(p->rng.pixel, q.rng.pixel, m);
+    p->rng.sample = select(p->rng.sample, q.rng.sample, m);
+    p->rng.dimension = select(p->rng.dimension, q.rng.dimension, m);
+    p->rng.quasi0 = select_luint4(p->rng.quasi0, q.rng.quasi0, m);
+    p->rng.quasi1 = select_luint4(p->rng.quasi1, q.rng.quasi1, m);
+    p->rng.quasi2 = select_luint4(p->rng.quasi2, q.rng.quasi2, m);
+    p->o = v3_select(p->o, q.o, m);
+    p->d = v3_select(p->d, q.d, m);
+    p->radiance = v3_select(p->radiance, q.radiance, m);
+    p->throughput = v3_select(p->throughput, q.throughput, m);
+    p->depth = select(p->depth, q.depth, m);
+#if CLPT_NEE
+    p->sampled_light = select(p->sampled_light, q.sampled_light, m);
+    p->prev_p = v3_select(p->prev_p, q.prev_p, m);
+    p->prev_pdf = select(p->prev_pdf, q.prev_pdf, m);
+    p->prev_light = select(p->prev_light, q.prev_light, m);
+    p->prev_light_pdf = select(p->prev_light_pdf, q.prev_light_pdf, m);
+#endif
+}
+#endif
+
+/* One vertex of path p in each lane of `active`: traces its ray, adds the emission found there
+ * (and, with light sampling, a light sample), scatters, and plays roulette. Returns the lanes
+ * whose paths go on; where a path does not, p->radiance is the sample's value. At width 1
+ * (lanes.h) `active` is true and each mask a plain condition. */
+inline lmask path_bounce(const Scene* sc, Path* p, lmask active) {
     __global const RenderParams* params = sc->params;
-    if (p->depth >= params->max_depth) {
-        return false;
+    lmask alive = active && p->depth < params->max_depth;
+    if (!lane_any(alive)) {
+        return alive;
     }
-    const float3 d = p->d; /* the ray's direction; p->d becomes the next one */
+    const LFloat3 d = p->d; /* the ray's direction; p->d becomes the next one */
     const Hit hit = scene_intersect(sc, p->o, d);
-    if (hit.kind == HIT_NONE) {
-        return false; /* the background is black */
+    alive = alive && hit.kind != HIT_NONE; /* the background is black */
+    if (!lane_any(alive)) {
+        return alive;
     }
     const Surface s = scene_surface(sc, hit, p->o, d);
     const SurfaceMaterial sm = material_at(sc, hit, s);
 #if CLPT_NEE
-    if (any(sm.emission != (float3)(0.0f))) {
-        const float w_emission =
-            p->sampled_light ? emission_weight(sc, hit, s, p->prev_p, p->prev_pdf, d,
-                                               p->prev_light, p->prev_light_pdf)
-                             : 1.0f;
-        p->radiance += p->throughput * sm.emission * w_emission;
+    const lmask emits =
+        alive && (sm.emission.x != 0.0f || sm.emission.y != 0.0f || sm.emission.z != 0.0f);
+    if (lane_any(emits)) {
+        lfloat w_emission = 1.0f;
+        if (lane_any(emits && p->sampled_light)) {
+            w_emission = lselect(w_emission,
+                                 emission_weight(sc, hit, s, p->prev_p, p->prev_pdf, d,
+                                                 p->prev_light, p->prev_light_pdf),
+                                 p->sampled_light);
+        }
+        p->radiance = v3_select(
+            p->radiance,
+            v3_add(p->radiance, v3_scale(w_emission, v3_mul(p->throughput, sm.emission))), emits);
     }
 #else
-    p->radiance += p->throughput * sm.emission;
+    p->radiance = v3_select(p->radiance, v3_add(p->radiance, v3_mul(p->throughput, sm.emission)),
+                            alive);
 #endif
 
-    const float4 u = rng_next4(&p->rng);
+    const LFloat4 u = rng_next4(&p->rng);
 #if CLPT_NEE
     /* Light sampling at every vertex but a delta lobe's, bent shading normals (bump maps,
      * smooth meshes) included: nee.h joins the light's trio to material.h's. */
-    p->sampled_light = !bsdf_is_delta(sm.type) && params->num_lights > 0u;
-    if (p->sampled_light) {
-        p->radiance += p->throughput * sample_light(sc, s, sm.type, sm.color, -d, sm.shading_normal,
-                                                    rng_light4(&p->rng, p->depth),
-                                                    &p->prev_light, &p->prev_light_pdf);
+    p->sampled_light = alive && !bsdf_is_delta(sm.type) && params->num_lights > 0u;
+    if (lane_any(p->sampled_light)) {
+        const LFloat3 light = sample_light(sc, s, sm.type, sm.color, v3_neg(d), sm.shading_normal,
+                                           rng_light4(&p->rng, p->depth), &p->prev_light,
+                                           &p->prev_light_pdf);
+        p->radiance = v3_select(p->radiance, v3_add(p->radiance, v3_mul(p->throughput, light)),
+                                p->sampled_light);
     }
 #endif
-    float3 wi;
-    float pdf;
+    LFloat3 wi;
+    lfloat pdf;
     lmask is_delta;
-    p->throughput *= bsdf_sample(sm.type, sm.color, -d, s.n, sm.shading_normal, u, &wi, &pdf,
-                                 &is_delta);
+    const LFloat3 weight = bsdf_sample(sm.type, sm.color, v3_neg(d), s.n, sm.shading_normal, u,
+                                       &wi, &pdf, &is_delta);
+    p->throughput = v3_select(p->throughput, v3_mul(p->throughput, weight), alive);
 #if CLPT_NEE
-    if (p->sampled_light) {
-        /* The density with which this vertex found wi: the next hit's MIS weight. */
-        p->prev_p = s.p;
-        p->prev_pdf = pdf;
-    }
+    /* The density with which this vertex found wi: the next hit's MIS weight. */
+    p->prev_p = v3_select(p->prev_p, s.p, p->sampled_light);
+    p->prev_pdf = lselect(p->prev_pdf, pdf, p->sampled_light);
 #endif
 
     /* Russian roulette as the lower edge of a weight window (Vorba and Krivanek 2016,
@@ -169,21 +225,24 @@ inline bool path_bounce(const Scene* sc, Path* p) {
      * even a closed room of albedo 1 (the original's untextured defaults) has paths of at
      * most rr_depth + 20 bounces on average. A zero (or non-finite) throughput ends the
      * path at once. The 1/survive weight keeps the estimate unbiased. */
-    const float m = max_component(p->throughput);
-    if (!(m > 0.0f)) {
-        return false;
+    const lfloat m = max_component(p->throughput);
+    alive = alive && m > 0.0f;
+    if (!lane_any(alive)) {
+        return alive;
     }
-    p->depth += 1u;
-    if (p->depth >= params->rr_depth) {
-        const float survive = fmin(RR_MAX_SURVIVAL, m / params->rr_threshold);
-        if (!(u.w < survive)) {
-            return false;
+    p->depth = lselect(p->depth, p->depth + 1u, alive);
+    const lmask roulette = alive && p->depth >= params->rr_depth;
+    if (lane_any(roulette)) {
+        const lfloat survive = fmin(m / params->rr_threshold, RR_MAX_SURVIVAL);
+        alive = alive && !(roulette && !(u.w < survive));
+        if (!lane_any(alive)) {
+            return alive;
         }
-        p->throughput /= survive;
+        p->throughput = v3_select(p->throughput, v3_div(p->throughput, survive), roulette);
     }
-    p->o = offset_ray_origin(s.p, s.p_error, s.n, wi);
-    p->d = wi;
-    return true;
+    p->o = v3_select(p->o, offset_ray_origin(s.p, s.p_error, s.n, wi), alive);
+    p->d = v3_select(p->d, wi, alive);
+    return alive;
 }
 
 /* Adds x to the double-float hi + lo (|lo| at most half an ulp of hi): Knuth's TwoSum gives
@@ -193,29 +252,70 @@ inline bool path_bounce(const Scene* sc, Path* p) {
  * once a pixel holds millions of samples (0.8% low at 2^22 samples of 0.3; an unrenormalized
  * lo still 0.06% high); hi + lo stays within about 1e-7 relative up to 2^32 samples, for nine
  * adds a sample. Needs IEEE adds in program order: no build option here allows reassociation. */
-inline void add_compensated(float4* hi, float4* lo, float4 x) {
-    const float4 s = *hi + x;
-    const float4 x_part = s - *hi;
-    const float4 e = ((*hi - (s - x_part)) + (x - x_part)) + *lo;
-    const float4 t = s + e;
-    *lo = e - (t - s);
-    *hi = t;
+inline void add_compensated(LFloat3* hi, LFloat3* lo, LFloat3 x, lmask m) {
+    const LFloat3 s = v3_add(*hi, x);
+    const LFloat3 x_part = v3_sub(s, *hi);
+    const LFloat3 e = v3_add(v3_add(v3_sub(*hi, v3_sub(s, x_part)), v3_sub(x, x_part)), *lo);
+    const LFloat3 t = v3_add(s, e);
+    *lo = v3_select(*lo, v3_sub(e, v3_sub(t, s)), m);
+    *hi = v3_select(*hi, t, m);
 }
 
-/* Adds sample `sample` of value l to a pixel's running sums (render_pass): its value
+/* A pixel's running sums in each lane (render_pass): of its samples (compensated: sum +
+ * sum_lo), of their squares, and of the odd half's (odd + odd_lo); the samples that were not
+ * finite, and the index of the first. */
+typedef struct Film {
+    LFloat3 sum, sum_lo, sum_sq, odd, odd_lo;
+    luint bad, first;
+} Film;
+
+/* The three floats of a film buffer's pixel in each lane of m (zeros elsewhere), and back. */
+inline LFloat3 film_load3(__global const float4* buffer, luint pixel, lmask m) {
+#if CLPT_WIDE
+    LFloat3 v = v3_splat((float3)(0.0f));
+    for (uint l = 0u; l < CLPT_LANES; ++l) {
+        if (((const int*)&m)[l]) {
+            lane_set_float3(&v, l, buffer[lane_uint(pixel, l)].xyz);
+        }
+    }
+    return v;
+#else
+    return buffer[pixel].xyz;
+#endif
+}
+
+/* The .w of each pixel is left as it is. */
+inline void film_store3(__global float4* buffer, luint pixel, lmask m, LFloat3 v) {
+#if CLPT_WIDE
+    for (uint l = 0u; l < CLPT_LANES; ++l) {
+        if (((const int*)&m)[l]) {
+            vstore3(lane_float3(v, l), 0, (__global float*)&buffer[lane_uint(pixel, l)]);
+        }
+    }
+#else
+    vstore3(v, 0, (__global float*)&buffer[pixel]);
+#endif
+}
+
+/* Adds sample `sample` of value l to a pixel's running sums in each lane of m: its value
  * (compensated), its square, and, for odd-numbered groups of four, the odd half. A value that
  * is not finite is not added: it is counted, and the first such sample index kept. */
-inline void film_add(float3 l, uint sample, float4* acc, float4* acc_lo, float4* acc_sq,
-                     float4* acc_odd, float4* acc_odd_lo, uint* bad_count, uint* first) {
-    if (!(isfinite(l.x) && isfinite(l.y) && isfinite(l.z))) {
-        *first = *bad_count == 0u ? sample : *first;
-        *bad_count += 1u;
+inline void film_add(Film* f, LFloat3 l, luint sample, lmask m) {
+    const lmask finite = isfinite(l.x) && isfinite(l.y) && isfinite(l.z);
+    const lmask bad = m && !finite;
+    if (lane_any(bad)) {
+        f->first = lselect(f->first, sample, bad && f->bad == 0u);
+        f->bad = lselect(f->bad, f->bad + 1u, bad);
+    }
+    const lmask add = m && finite;
+    if (!lane_any(add)) {
         return;
     }
-    add_compensated(acc, acc_lo, (float4)(l, 0.0f));
-    *acc_sq += (float4)(l * l, 0.0f);
-    if ((sample >> 2) & 1u) {
-        add_compensated(acc_odd, acc_odd_lo, (float4)(l, 0.0f));
+    add_compensated(&f->sum, &f->sum_lo, l, add);
+    f->sum_sq = v3_select(f->sum_sq, v3_add(f->sum_sq, v3_mul(l, l)), add);
+    const lmask odd = add && ((sample >> 2) & 1u) != 0u;
+    if (lane_any(odd)) {
+        add_compensated(&f->odd, &f->odd_lo, l, odd);
     }
 }
 
@@ -250,16 +350,22 @@ __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum, __global floa
                           uint sample_count, uint row_start, uint row_count, uint row_step,
                           uint col_start, uint col_step) {
     const Scene scene = SCENE_FROM_KERNEL_ARGS;
-    const uint px = col_start + get_global_id(0) * col_step;
-    if (px >= params->camera.width || get_global_id(1) >= row_count) {
+    /* A work-item's lanes take CLPT_LANES consecutive pixels of its row's (lanes.h). */
+    const luint px = col_start + ((uint)get_global_id(0) * CLPT_LANES + LANE_INDEX) * col_step;
+    const lmask in_image = px < params->camera.width && get_global_id(1) < row_count;
+    if (!lane_any(in_image)) {
         return; /* padding of the global size to whole work-groups */
     }
     const uint py = row_start + get_global_id(1) * row_step;
-    const uint pixel = py * params->camera.width + px;
-    float4 acc = sum[pixel], acc_lo = sum_lo[pixel];
-    float4 acc_sq = sum_sq[pixel];
-    float4 acc_odd = sum_odd[pixel], acc_odd_lo = sum_odd_lo[pixel];
-    uint bad_count = 0u, first = 0xffffffffu;
+    const luint pixel = py * params->camera.width + px;
+    Film film;
+    film.sum = film_load3(sum, pixel, in_image);
+    film.sum_lo = film_load3(sum_lo, pixel, in_image);
+    film.sum_sq = film_load3(sum_sq, pixel, in_image);
+    film.odd = film_load3(sum_odd, pixel, in_image);
+    film.odd_lo = film_load3(sum_odd_lo, pixel, in_image);
+    film.bad = (luint)(0u);
+    film.first = (luint)(0xffffffffu);
 #if CLPT_REGENERATE
     /* Path regeneration (Novak, Havran and Dachsbacher, "Path regeneration for interactive path
      * tracing", Eurographics 2010): one loop over bounces, in which a lane whose path has ended
@@ -280,10 +386,9 @@ __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum, __global floa
         path = path_start(&scene, px, py, sample_start);
     }
     while (i < sample_count) {
-        if (!ended && !path_bounce(&scene, &path)) {
+        if (!ended && !path_bounce(&scene, &path, LANE_TRUE)) {
             ended = true;
-            film_add(path.radiance, sample_start + i, &acc, &acc_lo, &acc_sq, &acc_odd,
-                     &acc_odd_lo, &bad_count, &first);
+            film_add(&film, path.radiance, sample_start + i, LANE_TRUE);
             if (++i == sample_count) {
                 break;
             }
@@ -294,24 +399,60 @@ __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum, __global floa
         }
     }
 #else
+#if CLPT_WIDE
+    /* Lanes of one work-item, as a warp's lanes, regenerate paths: each lane adds its pixel's
+     * samples in index order, and a lane whose path has ended starts its next sample when
+     * half the lanes with samples left have ended (or none traces on). */
+    luint done = (luint)(0u);
+    lmask live = in_image && sample_count > 0u;
+    lmask tracing = live;
+    Path path = path_start(&scene, px, py, (luint)(sample_start));
+    while (lane_any(live)) {
+        const lmask on = path_bounce(&scene, &path, tracing);
+        const lmask ended = tracing && !on;
+        if (lane_any(ended)) {
+            film_add(&film, path.radiance, sample_start + done, ended);
+            done = lselect(done, done + 1u, ended);
+            live = live && !(ended && done >= sample_count);
+        }
+        tracing = on;
+        const lmask waiting = live && !tracing;
+        if (lane_any(waiting) &&
+            (!lane_any(tracing) || 2u * popcount_mask(waiting) >= popcount_mask(live))) {
+            path_select(&path, path_start(&scene, px, py, sample_start + done), waiting);
+            tracing = tracing || waiting;
+        }
+    }
+#else
     /* A CPU runs each work-item's loop alone: nothing idles while another path runs on. */
     for (uint i = 0u; i < sample_count; ++i) {
         Path path = path_start(&scene, px, py, sample_start + i);
-        while (path_bounce(&scene, &path)) {
+        while (path_bounce(&scene, &path, LANE_TRUE)) {
         }
-        film_add(path.radiance, sample_start + i, &acc, &acc_lo, &acc_sq, &acc_odd, &acc_odd_lo,
-                 &bad_count, &first);
+        film_add(&film, path.radiance, sample_start + i, LANE_TRUE);
     }
 #endif
-    sum[pixel] = acc;
-    sum_lo[pixel] = acc_lo;
-    sum_sq[pixel] = acc_sq;
-    sum_odd[pixel] = acc_odd;
-    sum_odd_lo[pixel] = acc_odd_lo;
-    if (bad_count > 0u) {
-        bad_first[pixel] = bad[pixel] == 0u ? first : bad_first[pixel];
-        bad[pixel] += bad_count;
+#endif
+    film_store3(sum, pixel, in_image, film.sum);
+    film_store3(sum_lo, pixel, in_image, film.sum_lo);
+    film_store3(sum_sq, pixel, in_image, film.sum_sq);
+    film_store3(sum_odd, pixel, in_image, film.odd);
+    film_store3(sum_odd_lo, pixel, in_image, film.odd_lo);
+#if CLPT_WIDE
+    for (uint l = 0u; l < CLPT_LANES; ++l) {
+        const uint count = lane_uint(film.bad, l);
+        if (count > 0u) {
+            const uint p = lane_uint(pixel, l);
+            bad_first[p] = bad[p] == 0u ? lane_uint(film.first, l) : bad_first[p];
+            bad[p] += count;
+        }
     }
+#else
+    if (film.bad > 0u) {
+        bad_first[pixel] = bad[pixel] == 0u ? film.first : bad_first[pixel];
+        bad[pixel] += film.bad;
+    }
+#endif
 }
 
 /* Error sums of one image row after `spp` samples, for the per-pass report (render/mod.rs).

@@ -11,6 +11,7 @@
 #include "camera.h"
 #include "objects.h"
 #include "material.h"
+#include "nee.h"
 
 /* The three floats at a + (first + lane) * stride + offset, in each lane. */
 inline LFloat3 probe_load3(__global const float* a, uint first, uint stride, uint offset) {
@@ -146,9 +147,56 @@ __kernel void probe_bsdf(__global const uint* type, __global const float* frames
     }
 }
 
+/* An emitter's trio (nee.h), for light 0 of `lights`: input per sample p and two uniforms
+ * (5 floats); output 12 floats: light_sample's wi, q, q_error, pdf and whether it sampled
+ * (1 or 0), then light_pdf at that wi and the distance |q - p|. A work-item takes CLPT_LANES
+ * samples. */
+__kernel void probe_light_sample(__global const Light* lights, __global const float* p_u,
+                                 __global float* out) {
+    const uint first = get_global_id(0) * CLPT_LANES;
+    const LFloat3 p = probe_load3(p_u, first, 5u, 0u);
+    lfloat ux, uy;
+    for (uint l = 0u; l < CLPT_LANES; ++l) {
+        PROBE_LANE_SET(float, ux, l, p_u[5 * (first + l) + 3]);
+        PROBE_LANE_SET(float, uy, l, p_u[5 * (first + l) + 4]);
+    }
+    const LFloat3 zero = v3_splat((float3)(0.0f));
+    LFloat3 wi = zero, q = zero, q_error = zero, q_normal;
+    lfloat pdf = 0.0f;
+    lmask uniform;
+    const lmask ok =
+        light_sample(&lights[0], p, ux, uy, &wi, &q, &q_error, &q_normal, &pdf, &uniform);
+    const lfloat pdf_again = light_pdf(&lights[0], p, wi, v3_length(v3_sub(q, p)));
+    for (uint l = 0u; l < CLPT_LANES; ++l) {
+        __global float* r = out + 12 * (first + l);
+        const bool sampled = PROBE_LANE(int, ok, l) != 0;
+        probe_store3(wi, l, r);
+        probe_store3(q, l, r + 3);
+        probe_store3(q_error, l, r + 6);
+        r[9] = PROBE_LANE(float, pdf, l);
+        r[10] = sampled ? 1.0f : 0.0f;
+        r[11] = sampled ? PROBE_LANE(float, pdf_again, l) : 0.0f;
+    }
+}
+
+/* light_pdf of light 0 of `lights`: input per sample p, a unit direction d that meets the
+ * light and the distance t to where it does (7 floats); output the density. */
+__kernel void probe_light_pdf(__global const Light* lights, __global const float* p_d_t,
+                              __global float* out) {
+    const uint first = get_global_id(0) * CLPT_LANES;
+    lfloat t;
+    for (uint l = 0u; l < CLPT_LANES; ++l) {
+        PROBE_LANE_SET(float, t, l, p_d_t[7 * (first + l) + 6]);
+    }
+    const lfloat pdf = light_pdf(&lights[0], probe_load3(p_d_t, first, 7u, 0u),
+                                 probe_load3(p_d_t, first, 7u, 3u), t);
+    for (uint l = 0u; l < CLPT_LANES; ++l) {
+        out[first + l] = PROBE_LANE(float, pdf, l);
+    }
+}
+
 #if !CLPT_WIDE
 #include "texture.h"
-#include "nee.h"
 
 /* Primary rays: input (px, py, -, -) and four uniforms; output origin and direction. */
 __kernel void probe_camera(__global const RenderParams* params, __global const uint4* pixel,
@@ -191,37 +239,6 @@ __kernel void probe_spawn(SCENE_KERNEL_ARGS, __global const float* rays, __globa
         r[2] = dot(w, scene_surface(&scene, next, o2, w).n);
         r[3] = next.t;
     }
-}
-
-/* An emitter's trio (nee.h), for light 0 of `lights`: input per work-item p and two uniforms
- * (5 floats); output 12 floats: light_sample's wi, q, q_error, pdf and whether it sampled
- * (1 or 0), then light_pdf at that wi and the distance |q - p|. */
-__kernel void probe_light_sample(__global const Light* lights, __global const float* p_u,
-                                 __global float* out) {
-    const uint i = get_global_id(0);
-    __global const float* in = p_u + 5 * i;
-    const float3 p = vload3(0, in);
-    float3 wi = (float3)(0.0f), q = (float3)(0.0f), q_error = (float3)(0.0f), q_normal;
-    float pdf = 0.0f;
-    bool uniform;
-    const bool ok = light_sample(&lights[0], p, (float2)(in[3], in[4]), &wi, &q, &q_error,
-                                 &q_normal, &pdf, &uniform);
-    __global float* r = out + 12 * i;
-    vstore3(wi, 0, r);
-    vstore3(q, 1, r);
-    vstore3(q_error, 2, r);
-    r[9] = pdf;
-    r[10] = ok ? 1.0f : 0.0f;
-    r[11] = ok ? light_pdf(&lights[0], p, wi, length(q - p)) : 0.0f;
-}
-
-/* light_pdf of light 0 of `lights`: input per work-item p, a unit direction d that meets the
- * light and the distance t to where it does (7 floats); output the density. */
-__kernel void probe_light_pdf(__global const Light* lights, __global const float* p_d_t,
-                              __global float* out) {
-    const uint i = get_global_id(0);
-    __global const float* in = p_d_t + 7 * i;
-    out[i] = light_pdf(&lights[0], vload3(0, in), vload3(1, in), in[6]);
 }
 
 /* Texture coordinates and directions of a hit: input as probe_hit (9 floats, w unused); output

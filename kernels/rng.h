@@ -66,11 +66,11 @@ inline LUint4 philox4x32_10(LUint4 ctr, uint2 key) {
 /* The numbers of one path: (seed, pixel, sample) fixed, `dimension` advancing. The quasi-random
  * blocks are drawn together when the path starts (rng_for_path) and handed out in order: one
  * copy of the Sobol code in a rolled loop, not one per call site inside the path loop. With
- * lanes (lanes.h), each lane holds a sample of the same pixel, and lanes restart apart
+ * lanes (lanes.h), each lane holds a sample of its own pixel, and lanes restart apart
  * (rng_restart), so each has its own sample and dimension. */
 typedef struct Rng {
     uint2 key;
-    uint pixel;
+    luint pixel;
     luint sample;
     luint dimension;
     LUint4 quasi0, quasi1, quasi2; /* blocks dimension .. SOBOL_BLOCKS - 1, next first */
@@ -97,7 +97,7 @@ inline LFloat4 rng_to_unit4(LUint4 bits) {
 /* Quasi-random block `block` of sample `sample` in pixel `pixel`: Philox of the counter
  * (pixel, block, half, ~0) under the seed gives the shuffle and scrambling seeds, the sample
  * the point index. */
-inline LUint4 rng_quasi_block(uint2 key, uint pixel, luint sample, uint block) {
+inline LUint4 rng_quasi_block(uint2 key, luint pixel, luint sample, uint block) {
     const luint half_index = (sample >> 2) & 1u;
     const luint point = ((sample >> 3) << 2) | (sample & 3u);
     const LUint4 counter = make_luint4((luint)(pixel), (luint)(block), half_index, (luint)(~0u));
@@ -123,7 +123,7 @@ inline void rng_restart(Rng* rng, lmask m, luint sample) {
     }
 }
 
-inline Rng rng_for_path(uint seed_lo, uint seed_hi, uint pixel, luint sample) {
+inline Rng rng_for_path(uint seed_lo, uint seed_hi, luint pixel, luint sample) {
     Rng rng;
     rng.key = (uint2)(seed_lo, seed_hi);
     rng.pixel = pixel;

@@ -14,10 +14,9 @@ inline LFloat4 probe_rng_block(Rng* rng, uint light, luint k) {
     return light ? rng_light4(rng, k) : rng_next4(rng);
 }
 
-/* Lane `lane` of v. */
-inline float lane_float(lfloat v, uint lane) {
-    return ((const float*)&v)[lane];
-}
+#if !CLPT_WIDE
+#define lane_float(v, lane) (v)
+#endif
 
 /* Stores lane `lane` of v as out[i]. */
 inline void probe_store_lane(LFloat4 v, uint lane, __global float4* out, uint i) {

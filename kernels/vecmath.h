@@ -66,6 +66,15 @@ inline LFloat3 v3_fabs(LFloat3 a) {
 inline LFloat3 v3_select(LFloat3 a, LFloat3 b, lmask m) {
     return make_lfloat3(select(a.x, b.x, m), select(a.y, b.y, m), select(a.z, b.z, m));
 }
+/* Lane `lane` of v, and v with that lane set to x. */
+inline float3 lane_float3(LFloat3 v, uint lane) {
+    return (float3)(lane_float(v.x, lane), lane_float(v.y, lane), lane_float(v.z, lane));
+}
+inline void lane_set_float3(LFloat3* v, uint lane, float3 x) {
+    lane_set_float(&v->x, lane, x.x);
+    lane_set_float(&v->y, lane, x.y);
+    lane_set_float(&v->z, lane, x.z);
+}
 #else
 typedef float3 LFloat3;
 #define make_lfloat3(x, y, z) ((float3)((x), (y), (z)))
@@ -85,7 +94,7 @@ typedef float3 LFloat3;
 #define v3_select(a, b, m) ((m) ? (b) : (a))
 #endif
 
-inline float max_component(float3 v) {
+inline lfloat max_component(LFloat3 v) {
     return fmax(v.x, fmax(v.y, v.z));
 }
 

@@ -215,6 +215,11 @@ struct ProgramArgs {
     /// Build the program with every feature, not only those the scene uses.
     #[arg(long)]
     all_features: bool,
+    /// Paths one work-item carries on a CPU device, in SIMD lanes: 1, 4, 8 or 16 [default:
+    /// the device's native float vector width, where the scene's program has only what the
+    /// wide kernels are written for so far (docs/cpu-lanes.md)]. GPUs always take 1.
+    #[arg(long, value_name = "N", value_parser = parse_lanes)]
+    lanes: Option<u32>,
     /// Always build the program from source; neither read nor write the program cache.
     #[arg(long)]
     no_cache: bool,
@@ -222,6 +227,14 @@ struct ProgramArgs {
     /// $XDG_CACHE_HOME/clpt/programs, else ~/.cache/clpt/programs]
     #[arg(long, value_name = "DIR")]
     cache_dir: Option<PathBuf>,
+}
+
+/// `--lanes`: 1, 4, 8 or 16 (the lane widths kernels/lanes.h builds).
+fn parse_lanes(s: &str) -> Result<u32, String> {
+    match s.parse::<u32>() {
+        Ok(n @ (1 | 4 | 8 | 16)) => Ok(n),
+        _ => Err(format!("`{s}` is not 1, 4, 8 or 16")),
+    }
 }
 
 impl ProgramArgs {
@@ -389,6 +402,7 @@ fn options(
         roulette: sampling.rr_threshold,
         launch_target,
         all_features: program.all_features,
+        lanes: program.lanes,
         cache_dir: program.cache_dir(),
         ..RenderOptions::default()
     })

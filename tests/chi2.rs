@@ -128,7 +128,7 @@ struct Sample {
 }
 
 impl Probes {
-    /// Runs probe `name` on light (as the light list's only entry) over `items` work-items of
+    /// Runs probe `name` on light (as the light list's only entry) for `items` samples of
     /// `input`, each writing `width` floats.
     fn kernel(
         &self,
@@ -138,9 +138,18 @@ impl Probes {
         items: usize,
         width: usize,
     ) -> Vec<f32> {
+        // Whole work-items of `lanes` samples: the input padded with copies of its last one.
+        let lanes = self.lanes as usize;
+        let padded_items = items.div_ceil(lanes) * lanes;
+        let per_item = input.len() / items;
+        let mut input = input.to_vec();
+        for _ in items..padded_items {
+            let last = input[input.len() - per_item..].to_vec();
+            input.extend(last);
+        }
         let lb = common::buffer(&self.device, bytemuck::bytes_of(light));
-        let ib = common::buffer(&self.device, input);
-        let out = common::output::<f32>(&self.device, items * width);
+        let ib = common::buffer(&self.device, &input);
+        let out = common::output::<f32>(&self.device, padded_items * width);
         let kernel = ocl::Kernel::builder()
             .program(&self.program)
             .name(name)
@@ -150,8 +159,10 @@ impl Probes {
             .arg(&out)
             .build()
             .unwrap();
-        common::run(&kernel, items);
-        common::read(&out)
+        common::run(&kernel, padded_items / lanes);
+        let mut out = common::read(&out);
+        out.truncate(items * width);
+        out
     }
 
     /// light_sample from p with each pair of uniforms.
@@ -549,7 +560,13 @@ fn graded(foot: f64, height: f64, m: usize) -> Vec<f64> {
 /// radii from its centre: 7 chi-square tests.
 #[test]
 fn sphere_light_cone_sampling_follows_light_pdf() {
-    let probes = Probes::new();
+    // The scalar program, and the wide program of 16 lanes a work-item (kernels/lanes.h).
+    for lanes in [1, 16] {
+        sphere_light_cone_sampling_follows_light_pdf_at(&Probes::in_lanes(lanes));
+    }
+}
+
+fn sphere_light_cone_sampling_follows_light_pdf_at(probes: &Probes) {
     let mut rng = SmallRng::seed_from_u64(41);
     let l = alone(&common::every_light_scene_lights("sphere")[0]);
     assert_eq!(l.kind, OBJECT_SPHERE);
@@ -571,7 +588,7 @@ fn sphere_light_cone_sampling_follows_light_pdf() {
         };
         let d = (v(l.corner) - p.as_vec3().as_dvec3()).length() / r;
         check_light(
-            &probes,
+            probes,
             &format!("sphere from {d:.4} radii"),
             &l,
             p,
@@ -587,7 +604,13 @@ fn sphere_light_cone_sampling_follows_light_pdf() {
 /// chi-square tests.
 #[test]
 fn sphere_cap_sampling_follows_light_pdf() {
-    let probes = Probes::new();
+    // The scalar program, and the wide program of 16 lanes a work-item (kernels/lanes.h).
+    for lanes in [1, 16] {
+        sphere_cap_sampling_follows_light_pdf_at(&Probes::in_lanes(lanes));
+    }
+}
+
+fn sphere_cap_sampling_follows_light_pdf_at(probes: &Probes) {
     let mut rng = SmallRng::seed_from_u64(43);
     let l = alone(&common::every_light_scene_lights("cap")[0]);
     assert_eq!(l.kind, OBJECT_SPHERE);
@@ -609,7 +632,7 @@ fn sphere_cap_sampling_follows_light_pdf() {
             ..l
         };
         check_light(
-            &probes,
+            probes,
             &format!("cap of {h} radii"),
             &cap,
             c + from * r,
@@ -625,7 +648,13 @@ fn sphere_cap_sampling_follows_light_pdf() {
 /// from far away; the two-sided triangle from behind. 9 chi-square tests.
 #[test]
 fn square_parallelogram_and_triangle_sampling_follows_light_pdf() {
-    let probes = Probes::new();
+    // The scalar program, and the wide program of 16 lanes a work-item (kernels/lanes.h).
+    for lanes in [1, 16] {
+        square_parallelogram_and_triangle_sampling_follows_light_pdf_at(&Probes::in_lanes(lanes));
+    }
+}
+
+fn square_parallelogram_and_triangle_sampling_follows_light_pdf_at(probes: &Probes) {
     let mut rng = SmallRng::seed_from_u64(42);
     let lights = common::every_light_scene_lights("area");
     let square = alone(&lights[1]);
@@ -671,14 +700,7 @@ fn square_parallelogram_and_triangle_sampling_follows_light_pdf() {
             ),
             ("far", centre + slant * (200.0 * size)),
         ] {
-            check_light(
-                &probes,
-                &format!("{what} {place}"),
-                &l,
-                p,
-                &mut rng,
-                500_000,
-            );
+            check_light(probes, &format!("{what} {place}"), &l, p, &mut rng, 500_000);
         }
     }
 }
@@ -691,7 +713,13 @@ fn square_parallelogram_and_triangle_sampling_follows_light_pdf() {
 /// triangles' solid angles) says which of the two ways each point is sampled.
 #[test]
 fn rectangle_sampling_by_solid_angle_follows_light_pdf() {
-    let probes = Probes::new();
+    // The scalar program, and the wide program of 16 lanes a work-item (kernels/lanes.h).
+    for lanes in [1, 16] {
+        rectangle_sampling_by_solid_angle_follows_light_pdf_at(&Probes::in_lanes(lanes));
+    }
+}
+
+fn rectangle_sampling_by_solid_angle_follows_light_pdf_at(probes: &Probes) {
     let mut rng = SmallRng::seed_from_u64(44);
     for shift in [DVec3::ZERO, DVec3::new(1e5, -2e4, 3e4)] {
         let corner = DVec3::new(-100.0, 160.0, -100.0) + shift;
@@ -722,7 +750,7 @@ fn rectangle_sampling_by_solid_angle_follows_light_pdf() {
             let name = format!("ceiling from the {place}, shifted {shift}");
             let s = rectangle_solid_angle(&ceiling, p.as_vec3().as_dvec3());
             assert_eq!(s.is_some(), solid_angle, "{name}: solid angle {s:?}");
-            check_light(&probes, &name, &ceiling, p, &mut rng, 500_000);
+            check_light(probes, &name, &ceiling, p, &mut rng, 500_000);
         }
     }
 }

@@ -206,6 +206,7 @@ fn only_nvidia_gpus_get_the_warp_vote() {
         opencl_c_version: String::new(),
         driver_version: String::new(),
         is_gpu,
+        native_float_width: if is_gpu { 1 } else { 16 },
         watchdog: None,
     };
     assert!(Features::regeneration_on(&description("NVIDIA CUDA", true)));
@@ -234,6 +235,65 @@ fn only_nvidia_gpus_get_the_warp_vote() {
             .text;
         assert_eq!(text.contains("vote.sync.ballot"), regenerate);
         assert_eq!(text.contains("warp_vote_half("), regenerate);
+    }
+}
+
+/// A CPU device carries several paths a work-item (kernels/lanes.h) where the program has only
+/// what the wide kernels are written for: its native float width, or `--lanes`; a GPU, texture
+/// maps, meshes or the BVH keep one. The wide program has the wide types,
+/// the scalar one none of their text.
+#[test]
+fn cpus_get_lanes_where_the_program_allows() {
+    let device = |is_gpu: bool, width: u32| clpt::device::DeviceDescription {
+        index: 0,
+        platform: String::new(),
+        platform_version: String::new(),
+        name: String::new(),
+        kind: String::new(),
+        compute_units: 1,
+        global_mem_bytes: 0,
+        max_alloc_bytes: 0,
+        opencl_c_version: String::new(),
+        driver_version: String::new(),
+        is_gpu,
+        native_float_width: width,
+        watchdog: None,
+    };
+    let smallpt = clpt::scene::builtin::scene().unwrap();
+    let plain = Features::of(&smallpt, ObjectBvh::Auto);
+    assert_eq!(plain.lanes, 1, "Features::of leaves it to the renderer");
+    assert_eq!(plain.wide_lanes(&device(false, 16), None), 16);
+    assert_eq!(plain.wide_lanes(&device(false, 8), None), 8);
+    assert_eq!(plain.wide_lanes(&device(false, 1), None), 1);
+    assert_eq!(plain.wide_lanes(&device(false, 16), Some(4)), 4);
+    assert_eq!(plain.wide_lanes(&device(false, 16), Some(1)), 1);
+    assert_eq!(plain.wide_lanes(&device(true, 1), Some(16)), 1, "a GPU");
+    let mut nee = plain.clone();
+    nee.nee = true;
+    assert_eq!(
+        nee.wide_lanes(&device(false, 16), None),
+        16,
+        "light sampling"
+    );
+    let mut bvh = plain.clone();
+    bvh.bvh = true;
+    assert_eq!(bvh.wide_lanes(&device(false, 16), None), 1, "the BVH");
+    let mut maps = plain.clone();
+    maps.color_maps = true;
+    assert_eq!(maps.wide_lanes(&device(false, 16), None), 1, "texture maps");
+    for lanes in [1, 16] {
+        let mut f = plain.clone();
+        f.lanes = lanes;
+        let text = KernelSources::Embedded
+            .expand("pathtracer.cl", &f.defines())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .text;
+        assert_eq!(
+            text.contains("typedef struct LFloat3"),
+            lanes > 1,
+            "{lanes} lanes"
+        );
+        assert_eq!(text.contains("path_select("), lanes > 1, "{lanes} lanes");
     }
 }
 
@@ -290,6 +350,9 @@ fn render(
         spp: Some(4),
         seed: 11,
         all_features,
+        // One path a work-item: a CPU's wide program (kernels/lanes.h) rounds differently
+        // (tests/render.rs compares the two); here only leaving code out is under test.
+        lanes: Some(1),
         cache_dir: cache_dir.map(Path::to_path_buf),
         ..RenderOptions::default()
     };

@@ -8,7 +8,7 @@ mod common;
 
 use clpt::render::RenderOptions;
 use clpt::render::film::Film;
-use clpt::render::strategy::Roulette;
+use clpt::render::strategy::{LightSampling, Roulette};
 use clpt::scene::Scene;
 use clpt::scene::parse::parse_scene;
 use glam::DVec3;
@@ -222,6 +222,92 @@ fn same_seed_same_bits_however_split_other_seed_differs() {
         "{same} of {} lit pixels equal under another seed",
         lit.len()
     );
+}
+
+/// The programs of several lanes a work-item (kernels/lanes.h, chosen on CPUs where a scene
+/// allows) trace the scalar program's paths with the same random numbers, so their images
+/// agree up to rounding (a rounding can flip one path's roulette now and then: not bit for
+/// bit), whatever the launch split (bit for bit, as the scalar program): smallpt (mirror,
+/// glass), the ceiling-lit room (planes), and a thin lens, with light sampling and without.
+#[test]
+fn wide_programs_render_the_scalar_image() {
+    let room = parse_scene(
+        &std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/scenes/ceiling_room.txt"
+        ))
+        .unwrap(),
+        "ceiling_room.txt",
+    )
+    .unwrap();
+    let mut room = room;
+    room.camera.width = 40;
+    room.camera.height = 30;
+    let mut lens = smallpt_at(40, 30);
+    lens.camera.flength = 100.0;
+    lens.camera.aperture = 4.0;
+    let scenes = [
+        ("smallpt", smallpt_at(40, 30)),
+        ("room", room),
+        ("lens", lens),
+    ];
+    for ((name, scene), light_sampling) in scenes
+        .iter()
+        .flat_map(|s| [(s, LightSampling::Off), (s, LightSampling::On)])
+    {
+        let name = format!("{name}, light sampling {light_sampling:?}");
+        let at = |lanes: u32, launch: Option<Duration>| {
+            common::render(
+                scene,
+                RenderOptions {
+                    light_sampling,
+                    roulette: Roulette::Threshold(0.3),
+                    lanes: Some(lanes),
+                    launch_target: launch,
+                    ..options(64, 9)
+                },
+            )
+        };
+        let (scalar, stats) = at(1, None);
+        assert_eq!(stats.lanes, 1, "{name}");
+        // The narrowest width and AVX-512's (tests/geometry.rs and tests/material.rs take 8).
+        for lanes in [4, 16] {
+            let (wide, stats) = at(lanes, None);
+            assert_eq!(stats.lanes, lanes, "{name}: not a wide program");
+            // The squared differences of the pixel means against the squared error either
+            // image has from its own noise (its variance of the mean): rounding's few flipped
+            // paths stay far below it.
+            let (mut diff, mut noise) = (0.0, 0.0);
+            for (x, y) in all_pixels(&scalar) {
+                let (a, b, v) = (
+                    scalar.mean(x, y),
+                    wide.mean(x, y),
+                    scalar.variance_of_mean(x, y),
+                );
+                for c in 0..3 {
+                    diff += (a[c] - b[c]).powi(2);
+                    noise += v[c];
+                }
+            }
+            eprintln!(
+                "{name}, {lanes} lanes: squared difference {:e} of the noise",
+                diff / noise
+            );
+            assert!(
+                diff <= 1e-3 * noise,
+                "{name}, {lanes} lanes: squared difference {:e} of the noise",
+                diff / noise
+            );
+            if lanes == 16 {
+                let (split, _) = at(lanes, Some(Duration::from_nanos(1)));
+                assert_eq!(
+                    wide.sum, split.sum,
+                    "{name}, {lanes} lanes: another launch split"
+                );
+                assert_eq!(wide.sum_sq, split.sum_sq);
+            }
+        }
+    }
 }
 
 /// One pixel's f64 result: index, sum of samples, sum of squares.

@@ -51,6 +51,10 @@ pub struct DeviceDescription {
     pub opencl_c_version: String,
     pub driver_version: String,
     pub is_gpu: bool,
+    /// CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT: the floats one SIMD instruction takes (a CPU's
+    /// 8 with AVX2, 16 with AVX-512; 1 on GPUs), the lanes a work-item carries there
+    /// (render/features.rs `wide_lanes`).
+    pub native_float_width: u32,
     /// Whether the driver stops a kernel that runs too long (a display's watchdog): NVIDIA's
     /// CL_DEVICE_KERNEL_EXEC_TIMEOUT_NV (cl_nv_device_attribute_query); `None` where the
     /// device does not say.
@@ -129,6 +133,10 @@ fn describe(index: usize, platform: &ocl::Platform, device: &ocl::Device) -> Dev
         opencl_c_version: info_string(device, Info::OpenclCVersion),
         driver_version: info_string(device, Info::DriverVersion),
         is_gpu,
+        native_float_width: match device.info(Info::NativeVectorWidthFloat) {
+            Ok(InfoResult::NativeVectorWidthFloat(n)) => n,
+            _ => 1,
+        },
         watchdog: watchdog(device),
     }
 }
@@ -292,6 +300,7 @@ mod tests {
             opencl_c_version: String::new(),
             driver_version: String::new(),
             is_gpu: false,
+            native_float_width: 16,
             watchdog: None,
         };
         for yes in [

@@ -45,6 +45,10 @@ pub struct Features {
     /// renderer for NVIDIA GPUs, whose inline PTX the vote is ([`Features::regeneration_on`]);
     /// `of` leaves it off.
     pub regenerate: bool,
+    /// Paths a work-item carries (kernels/lanes.h): above 1 on a CPU device where the program
+    /// has only what the wide kernels are written for ([`Features::wide_lanes`]); `of` leaves
+    /// it at 1.
+    pub lanes: u32,
 }
 
 impl Features {
@@ -100,6 +104,7 @@ impl Features {
                 .count(),
             nee: false,
             regenerate: false,
+            lanes: 1,
         }
     }
 
@@ -130,6 +135,33 @@ impl Features {
         device.is_gpu && device.platform.contains("NVIDIA")
     }
 
+    /// The lanes a work-item of this program carries on `device` (kernels/lanes.h,
+    /// docs/cpu-lanes.md): on a CPU, `requested` (`--lanes`) or else the device's native float
+    /// vector width (8 with AVX2, 16 with AVX-512), where the program has only what the wide
+    /// kernels are written for so far: spheres and planes without transforms or the object
+    /// BVH, no texture maps. Elsewhere 1; a GPU's warp already runs 32 work-items in lock
+    /// step.
+    pub fn wide_lanes(
+        &self,
+        device: &crate::device::DeviceDescription,
+        requested: Option<u32>,
+    ) -> u32 {
+        let written = !(self.meshes
+            || self.revsurfaces
+            || self.bvh
+            || self.transforms
+            || self.textures()
+            || self.regenerate);
+        if device.is_gpu || !written {
+            return 1;
+        }
+        match requested.unwrap_or(device.native_float_width) {
+            n @ (4 | 8 | 16) => n,
+            n if n > 16 => 16,
+            _ => 1,
+        }
+    }
+
     pub fn textures(&self) -> bool {
         self.color_maps || self.emission_maps || self.type_maps || self.bump_maps
     }
@@ -149,9 +181,8 @@ impl Features {
             ("CLPT_THIN_LENS", flag(self.thin_lens)),
             ("CLPT_NEE", flag(self.nee)),
             ("CLPT_REGENERATE", flag(self.regenerate)),
-            // Render programs run one path a work-item so far (kernels/lanes.h,
-            // docs/cpu-lanes.md).
-            ("CLPT_WIDE", flag(false)),
+            ("CLPT_WIDE", flag(self.lanes > 1)),
+            ("CLPT_LANES", self.lanes.to_string()),
         ]
     }
 }
@@ -160,6 +191,7 @@ impl fmt::Display for Features {
     /// `spheres planes transforms color-maps thin-lens glass, 2 emitters` and the like.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let rev_degree = format!("revolved-surfaces(degree {})", self.rev_degree);
+        let lanes = format!("lanes({})", self.lanes);
         let names = [
             (self.spheres, "spheres"),
             (self.planes, "planes"),
@@ -179,6 +211,7 @@ impl fmt::Display for Features {
             (self.glass, "glass"),
             (self.nee, "nee"),
             (self.regenerate, "regenerate"),
+            (self.lanes > 1, lanes.as_str()),
         ];
         let on: Vec<&str> = names
             .iter()

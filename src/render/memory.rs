@@ -93,6 +93,7 @@ mod tests {
             opencl_c_version: String::new(),
             driver_version: String::new(),
             is_gpu: false,
+            native_float_width: 1,
             watchdog: None,
         }
     }

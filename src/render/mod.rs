@@ -143,6 +143,9 @@ pub struct RenderOptions {
     pub object_bvh: ObjectBvh,
     /// Build the program with every feature instead of only the scene's (benchmarks, tests).
     pub all_features: bool,
+    /// Paths a work-item carries on a CPU device (`--lanes`); `None`: the device's native
+    /// float width ([`Features::wide_lanes`]).
+    pub lanes: Option<u32>,
     /// The program cache's folder ([`crate::device::cache`]); `None`: always build.
     pub cache_dir: Option<std::path::PathBuf>,
     /// A converged image of the same scene and size: the per-pass report then measures the
@@ -187,6 +190,7 @@ impl Default for RenderOptions {
             max_mesh_bytes: crate::scene::mesh::DEFAULT_MAX_FILE_BYTES,
             object_bvh: ObjectBvh::Auto,
             all_features: false,
+            lanes: None,
             cache_dir: None,
             reference: None,
             target_error: None,
@@ -287,6 +291,8 @@ pub struct RenderStats {
     pub overflowed: Overflowed,
     /// The pass callback ended the render before its sample count or time limit.
     pub stopped: bool,
+    /// Paths a work-item of the chosen estimator's program carried (kernels/lanes.h).
+    pub lanes: u32,
 }
 
 /// What the render loop did ([`Renderer::trace`]), before the film is read back.
@@ -633,6 +639,7 @@ impl<'d> Renderer<'d> {
             };
             features.nee = light_sampling;
             features.regenerate = Features::regeneration_on(&device.description);
+            features.lanes = features.wide_lanes(&device.description, options.lanes);
             let program = program::build_entry(
                 device,
                 sources,
@@ -767,14 +774,16 @@ impl<'d> Renderer<'d> {
         Ok(())
     }
 
-    fn kernel(&self) -> &ocl::Kernel {
+    fn estimator(&self) -> &Estimator {
         let light_sampling = self.strategy.light_sampling;
-        &self
-            .estimators
+        self.estimators
             .iter()
             .find(|e| e.light_sampling == light_sampling)
             .expect("a program for every candidate")
-            .kernel
+    }
+
+    fn kernel(&self) -> &ocl::Kernel {
+        &self.estimator().kernel
     }
 
     /// One launch of the current strategy: the rows of `rows` x samples [sample_start, +count).
@@ -801,7 +810,12 @@ impl<'d> Renderer<'d> {
             kernel
                 .cmd()
                 .global_work_size([
-                    round_up(rows.columns(self.width()) as usize),
+                    // A work-item takes `lanes` consecutive columns (kernels/lanes.h).
+                    round_up(
+                        rows.columns(self.width())
+                            .div_ceil(self.estimator().features.lanes)
+                            as usize,
+                    ),
                     round_up(rows.count as usize),
                 ])
                 .local_work_size([edge, edge])
@@ -1121,6 +1135,7 @@ impl<'d> Renderer<'d> {
                 nonfinite,
                 overflowed,
                 stopped: traced.stopped,
+                lanes: self.estimator().features.lanes,
             },
         ))
     }
