@@ -190,11 +190,10 @@ fn a_sphere_only_program_carries_no_other_code() {
     assert_eq!(built.cache, CacheUse::Off);
 }
 
-/// Path regeneration's warp vote is NVIDIA's inline PTX: only NVIDIA GPUs get the switch, and
-/// only a program built with it carries the vote.
-#[test]
-fn only_nvidia_gpus_get_the_warp_vote() {
-    let description = |platform: &str, is_gpu: bool| clpt::device::DeviceDescription {
+/// A device of `platform` as the renderer describes it: a GPU or not, of native float width
+/// `width`.
+fn device(platform: &str, is_gpu: bool, width: u32) -> clpt::device::DeviceDescription {
+    clpt::device::DeviceDescription {
         index: 0,
         platform: platform.into(),
         platform_version: String::new(),
@@ -206,9 +205,17 @@ fn only_nvidia_gpus_get_the_warp_vote() {
         opencl_c_version: String::new(),
         driver_version: String::new(),
         is_gpu,
-        native_float_width: if is_gpu { 1 } else { 16 },
+        native_float_width: width,
         watchdog: None,
-    };
+    }
+}
+
+/// Path regeneration's warp vote is NVIDIA's inline PTX: only NVIDIA GPUs get the switch, and
+/// only a program built with it carries the vote.
+#[test]
+fn only_nvidia_gpus_get_the_warp_vote() {
+    let description =
+        |platform: &str, is_gpu: bool| device(platform, is_gpu, if is_gpu { 1 } else { 16 });
     assert!(Features::regeneration_on(&description("NVIDIA CUDA", true)));
     for (platform, is_gpu) in [
         ("Portable Computing Language", false),
@@ -244,21 +251,7 @@ fn only_nvidia_gpus_get_the_warp_vote() {
 /// the scalar one none of their text.
 #[test]
 fn cpus_get_lanes_where_the_program_allows() {
-    let device = |is_gpu: bool, width: u32| clpt::device::DeviceDescription {
-        index: 0,
-        platform: String::new(),
-        platform_version: String::new(),
-        name: String::new(),
-        kind: String::new(),
-        compute_units: 1,
-        global_mem_bytes: 0,
-        max_alloc_bytes: 0,
-        opencl_c_version: String::new(),
-        driver_version: String::new(),
-        is_gpu,
-        native_float_width: width,
-        watchdog: None,
-    };
+    let device = |is_gpu: bool, width: u32| device("", is_gpu, width);
     let smallpt = clpt::scene::builtin::scene().unwrap();
     let plain = Features::of(&smallpt, ObjectBvh::Auto);
     assert_eq!(plain.lanes, 1, "Features::of leaves it to the renderer");
