@@ -245,3 +245,28 @@ fn a_cpu_render_without_bounds_says_it_stops_after_12_s() {
     assert!(!stderr.contains(note), "{stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `--lanes` takes the widths the kernels build (1, 4, 8, 16) and refuses others before any
+/// work, naming them; a CPU render at a given width says so under `-v`.
+#[test]
+fn lanes_are_checked_and_reported() {
+    let dir = scratch("lanes");
+    let image = dir.join("image.pfm");
+    for bad in ["3", "32", "0", "x"] {
+        let run = render(&image, &["--lanes", bad]);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "--lanes {bad} was accepted");
+        assert!(err.contains("1, 4, 8 or 16"), "--lanes {bad}: {err}");
+        assert!(!image.exists(), "--lanes {bad} wrote an image");
+    }
+    let run = render(&image, &["--lanes", "8", "-v", "--light-sampling", "off"]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{err}");
+    let device_is_cpu = err.contains("(CPU");
+    assert_eq!(
+        err.contains("lanes(8)") && err.contains("-DCLPT_LANES=8"),
+        device_is_cpu,
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
