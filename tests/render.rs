@@ -228,7 +228,8 @@ fn same_seed_same_bits_however_split_other_seed_differs() {
 /// allows) trace the scalar program's paths with the same random numbers, so their images
 /// agree up to rounding (a rounding can flip one path's roulette now and then: not bit for
 /// bit), whatever the launch split (bit for bit, as the scalar program): smallpt (mirror,
-/// glass), the ceiling-lit room (planes), and a thin lens, with light sampling and without.
+/// glass), the ceiling-lit room (planes), and a thin lens, with light sampling and without. On a
+/// GPU device (the device run on the H200) it checks that --lanes leaves one path a work-item.
 #[test]
 fn wide_programs_render_the_scalar_image() {
     let room = parse_scene(
@@ -246,6 +247,7 @@ fn wide_programs_render_the_scalar_image() {
     let mut lens = smallpt_at(40, 30);
     lens.camera.flength = 100.0;
     lens.camera.aperture = 4.0;
+    let gpu = common::device().description.is_gpu;
     let scenes = [
         ("smallpt", smallpt_at(40, 30)),
         ("room", room),
@@ -273,6 +275,11 @@ fn wide_programs_render_the_scalar_image() {
         // The narrowest width and AVX-512's (tests/geometry.rs and tests/material.rs take 8).
         for lanes in [4, 16] {
             let (wide, stats) = at(lanes, None);
+            if gpu {
+                // A GPU runs one path a work-item whatever --lanes says (its warp is the SIMD).
+                assert_eq!(stats.lanes, 1, "{name}: a GPU took lanes");
+                continue;
+            }
             assert_eq!(stats.lanes, lanes, "{name}: not a wide program");
             // The squared differences of the pixel means against the squared error either
             // image has from its own noise (its variance of the mean): rounding's few flipped
