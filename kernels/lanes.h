@@ -5,11 +5,10 @@
  * CLPT_LANES > 1, a switch so that a width-1 program carries no text of the wide types; both in
  * features.h). Writes: nothing. Why: PoCL runs each work-item of a kernel with loops inside alone
  * on its core, scalar (examples/pocl_vectorizer.rs), but code written on float8 runs 8 wide
- * as written. A routine
- * written once on these types compiles at width 1 to what it would be on plain scalars (GPUs:
- * a warp already runs 32 work-items in lock step) and at width 8 or 16 to SIMD on a CPU. At
- * width 1 the four-wide types are OpenCL's own float4 and uint4, so code that takes them is
- * unchanged; wider, they are structs of lanes with the same field names.
+ * as written. A routine written once on these types compiles at width 1 to what it would be on
+ * plain scalars (GPUs: a warp already runs 32 work-items in lock step) and at width 8 or 16 to
+ * SIMD on a CPU. At width 1 the four-wide types are OpenCL's own float4 and uint4, so code that
+ * takes them is unchanged; wider, they are structs of lanes with the same field names.
  *
  * Masks (lmask) are what comparisons of lane values return: 1 or 0 at width 1, all bits set or
  * none wider. Both are true for select() and lane_any(), so masks are combined with & | and !
@@ -63,7 +62,7 @@ inline LUint4 select_luint4(LUint4 a, LUint4 b, lmask m) {
                        select(a.w, b.w, m));
 }
 #define lselect(a, b, m) select((a), (b), (m))
-/* Lane `lane` of v, and the first lane where m is true (m true somewhere). */
+/* Lane `lane` of v, and v with that lane set to x. */
 inline uint lane_uint(luint v, uint lane) {
     return ((const uint*)&v)[lane];
 }
@@ -76,17 +75,21 @@ inline void lane_set_float(lfloat* v, uint lane, float x) {
 inline void lane_set_uint(luint* v, uint lane, uint x) {
     ((uint*)v)[lane] = x;
 }
-/* The lanes where m is true. */
+/* Whether lane `lane` of m is true, and the lanes where m is true. */
+inline bool lane_on(lmask m, uint lane) {
+    return ((const int*)&m)[lane] != 0;
+}
 inline uint popcount_mask(lmask m) {
     uint n = 0u;
     for (uint l = 0u; l < CLPT_LANES; ++l) {
-        n += ((const int*)&m)[l] != 0;
+        n += lane_on(m, l);
     }
     return n;
 }
+/* The first lane where m is true (m true somewhere). */
 inline uint lane_first(lmask m) {
     uint lane = 0u;
-    while (((const int*)&m)[lane] == 0) {
+    while (!lane_on(m, lane)) {
         ++lane;
     }
     return lane;

@@ -274,7 +274,7 @@ inline LFloat3 film_load3(__global const float4* buffer, luint pixel, lmask m) {
 #if CLPT_WIDE
     LFloat3 v = v3_splat((float3)(0.0f));
     for (uint l = 0u; l < CLPT_LANES; ++l) {
-        if (((const int*)&m)[l]) {
+        if (lane_on(m, l)) {
             lane_set_float3(&v, l, buffer[lane_uint(pixel, l)].xyz);
         }
     }
@@ -288,7 +288,7 @@ inline LFloat3 film_load3(__global const float4* buffer, luint pixel, lmask m) {
 inline void film_store3(__global float4* buffer, luint pixel, lmask m, LFloat3 v) {
 #if CLPT_WIDE
     for (uint l = 0u; l < CLPT_LANES; ++l) {
-        if (((const int*)&m)[l]) {
+        if (lane_on(m, l)) {
             vstore3(lane_float3(v, l), 0, (__global float*)&buffer[lane_uint(pixel, l)]);
         }
     }
