@@ -203,9 +203,10 @@ struct SamplingArgs {
     /// The same as --light-sampling off.
     #[arg(long, conflicts_with = "light_sampling")]
     no_nee: bool,
-    /// How long one launch of the render runs, in milliseconds [default: 400 on a GPU, 100 on
-    /// a CPU]: shorter keeps a GPU that drives a display responsive (and within its watchdog),
-    /// longer leaves its lanes less idle at the end of each launch.
+    /// How long one launch of the render runs, in milliseconds [default: 400 on a GPU, 1000 on a
+    /// GPU without a kernel watchdog, 100 on a CPU]: shorter keeps a GPU that drives a display
+    /// responsive (and within its watchdog), longer leaves its lanes less idle at the end of
+    /// each launch.
     #[arg(long, value_name = "MS")]
     launch_ms: Option<f64>,
 }

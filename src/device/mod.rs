@@ -282,6 +282,27 @@ fn sub_device(device: ocl::Device, units: u32) -> Option<ocl::Device> {
         .then(|| ocl::Device::from(unsafe { ocl::core::DeviceId::from_raw(sub) }))
 }
 
+/// A description for the library's unit tests: a device of `kind` ("CPU" or "GPU") named
+/// `name`, with no memory, one lane and no watchdog answer; tests change the fields they use.
+#[cfg(test)]
+pub(crate) fn test_description(kind: &str, name: &str) -> DeviceDescription {
+    DeviceDescription {
+        index: 0,
+        platform: "p".into(),
+        platform_version: String::new(),
+        name: name.into(),
+        kind: kind.into(),
+        compute_units: 1,
+        global_mem_bytes: 0,
+        max_alloc_bytes: 0,
+        opencl_c_version: String::new(),
+        driver_version: String::new(),
+        is_gpu: kind == "GPU",
+        native_float_width: 1,
+        watchdog: None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -289,19 +310,8 @@ mod tests {
     #[test]
     fn a_device_is_named_by_the_start_of_a_word_of_two_characters_or_more() {
         let d = DeviceDescription {
-            index: 0,
             platform: "Portable Computing Language".into(),
-            platform_version: String::new(),
-            name: "pthread-skylake-avx512-Intel(R) Xeon(R) Gold".into(),
-            kind: "CPU".into(),
-            compute_units: 2,
-            global_mem_bytes: 0,
-            max_alloc_bytes: 0,
-            opencl_c_version: String::new(),
-            driver_version: String::new(),
-            is_gpu: false,
-            native_float_width: 16,
-            watchdog: None,
+            ..test_description("CPU", "pthread-skylake-avx512-Intel(R) Xeon(R) Gold")
         };
         for yes in [
             "xeon",

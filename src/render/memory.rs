@@ -82,19 +82,9 @@ mod tests {
 
     fn device(global: u64, max_alloc: u64) -> DeviceDescription {
         DeviceDescription {
-            index: 0,
-            platform: "p".into(),
-            platform_version: String::new(),
-            name: "the test device".into(),
-            kind: "CPU".into(),
-            compute_units: 1,
             global_mem_bytes: global,
             max_alloc_bytes: max_alloc,
-            opencl_c_version: String::new(),
-            driver_version: String::new(),
-            is_gpu: false,
-            native_float_width: 1,
-            watchdog: None,
+            ..crate::device::test_description("CPU", "the test device")
         }
     }
 

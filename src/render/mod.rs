@@ -3,9 +3,9 @@
 //! read the film back.
 //!
 //! Each launch covers a band of rows and a run of sample indices, sized from the measured rate
-//! so that one launch takes about `launch_target` (by default 400 ms on a GPU, 100 ms on a CPU:
-//! [`default_launch_target`]): long enough to keep a GPU busy, short enough that a display
-//! GPU's watchdog (about 2 s) never fires. Every pass ends with all pixels at the same sample
+//! so that one launch takes about `launch_target` (by default 400 ms on a GPU, 1000 ms on one
+//! without a kernel watchdog, 100 ms on a CPU: [`default_launch_target`]): long enough to keep
+//! a GPU busy, short enough that a display GPU's watchdog (about 2 s) never fires. Every pass ends with all pixels at the same sample
 //! count, and the kernel adds samples one at a time onto the running sums, so the image does
 //! not depend on how the work was split.
 
@@ -24,10 +24,10 @@ pub mod resume;
 pub mod strategy;
 pub mod trial;
 
-use crate::device::Device;
 use crate::device::layout::{self, RenderParams};
 use crate::device::program::{self, BuiltProgram, KernelSources};
 use crate::device::upload::{PackedScene, SceneBuffers};
+use crate::device::{Device, DeviceDescription};
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 use features::Features;
@@ -430,20 +430,26 @@ pub struct Renderer<'d> {
     options: RenderOptions,
 }
 
-/// The launch target on a device of `kind` when the options leave it
-/// ([`RenderOptions::launch_target`]): 400 ms on a GPU, 100 ms on a CPU. A GPU's work-item
-/// renders its pixel's samples of a launch one after another, a lane whose path has ended
-/// starting the next (path regeneration, kernels/pathtracer.cl): with one or two samples a
-/// launch, as 100 ms gave the showcases at their sizes, lanes idle until the longest path of
-/// their warp ends, and every pass ends in an error estimate and a wait. On the H200 400 ms
-/// against 100 (BENCHMARKS.md): case0 (2560x1440, 64 samples) with light sampling 2.73 s
-/// against 3.70, without 0.64 against 0.80; case1 without, 2.74 against 3.30; textures with,
-/// 2.27 against 2.67; meshes with, 2.46 against 2.69; case2 0.49 against 0.51. Launches sized
-/// by the slowest of the pass before stay well within a display watchdog's 2 s. A CPU keeps 100
-/// ms, not measured at 400: a CPU's trial sizes its launches by the target too
-/// (`render_rows`), and its timing was tuned at 100.
-pub fn default_launch_target(kind: &str) -> Duration {
-    Duration::from_millis(if kind == "CPU" { 100 } else { 400 })
+/// The launch target on `device` when the options leave it ([`RenderOptions::launch_target`]):
+/// 100 ms on a CPU; on a GPU 1000 ms where the driver says it has no kernel watchdog
+/// ([`DeviceDescription::watchdog`]: a compute GPU), else 400 ms. A GPU's work-item renders its
+/// pixel's samples of a launch one after another, a lane whose path has ended starting the next
+/// (path regeneration, kernels/pathtracer.cl): with few samples a launch, lanes idle until the
+/// longest path of their warp ends, and every pass ends in an error estimate and a wait. On the
+/// H200 400 ms against 100 (BENCHMARKS.md): case0 (2560x1440, 64 samples) with light sampling
+/// 2.73 s against 3.70, without 0.64 against 0.80; case1 without, 2.74 against 3.30; and 1000
+/// ms against 400 lowered relMSE × s by 2 to 17% on every showcase and GPU-heavy scene (case1
+/// with light sampling 17%, case0 14%; 1600 ms gained at most 4% more, for longer waits at a
+/// time limit and between progress lines). Launches sized by the slowest of the pass before
+/// stay well within a display watchdog's 2 s at 400 ms. A CPU keeps 100 ms, not measured at
+/// 400: a CPU's trial sizes its launches by the target too (`render_rows`), and its timing was
+/// tuned at 100.
+pub fn default_launch_target(device: &DeviceDescription) -> Duration {
+    Duration::from_millis(match (device.kind.as_str(), device.watchdog) {
+        ("CPU", _) => 100,
+        (_, Some(false)) => 1000,
+        _ => 400,
+    })
 }
 
 /// The shape of a pass's launches: `rows` rows of `spp` samples each.
@@ -891,7 +897,7 @@ impl<'d> Renderer<'d> {
     fn launch_target(&self) -> f64 {
         self.options
             .launch_target
-            .unwrap_or_else(|| default_launch_target(&self.device.description.kind))
+            .unwrap_or_else(|| default_launch_target(&self.device.description))
             .as_secs_f64()
             .max(1e-3)
     }
@@ -1416,7 +1422,25 @@ fn read_counters(buffer: &ocl::Buffer<u32>) -> Result<Vec<u32>> {
 
 #[cfg(test)]
 mod tests {
-    use super::pass_within;
+    use super::{default_launch_target, pass_within};
+    use crate::device::{DeviceDescription, test_description};
+    use std::time::Duration;
+
+    #[test]
+    fn launches_are_longest_on_a_gpu_without_a_watchdog() {
+        let ms = |kind: &str, watchdog| {
+            let device = DeviceDescription {
+                watchdog,
+                ..test_description(kind, "d")
+            };
+            default_launch_target(&device)
+        };
+        assert_eq!(ms("CPU", None), Duration::from_millis(100));
+        assert_eq!(ms("CPU", Some(false)), Duration::from_millis(100));
+        assert_eq!(ms("GPU", Some(false)), Duration::from_millis(1000));
+        assert_eq!(ms("GPU", Some(true)), Duration::from_millis(400));
+        assert_eq!(ms("GPU", None), Duration::from_millis(400));
+    }
 
     #[test]
     fn a_time_limited_pass_takes_the_samples_that_fit() {
