@@ -22,4 +22,19 @@ inline bool aabb_clip(float3 lo, float3 hi, float3 o, float3 inv_d, float* t0, f
     return *t0 <= *t1;
 }
 
+#if CLPT_WIDE && CLPT_MESHES
+/* aabb_clip in each lane (lanes.h), with the same roundings and NaN rules: the lanes whose ray
+ * meets the box. */
+inline lmask aabb_clip_lanes(float3 lo, float3 hi, LFloat3 o, LFloat3 inv_d, lfloat* t0,
+                             lfloat* t1) {
+    const lfloat ax = (lo.x - o.x) * inv_d.x, bx = (hi.x - o.x) * inv_d.x;
+    const lfloat ay = (lo.y - o.y) * inv_d.y, by = (hi.y - o.y) * inv_d.y;
+    const lfloat az = (lo.z - o.z) * inv_d.z, bz = (hi.z - o.z) * inv_d.z;
+    *t0 = fmax(*t0, fmax(fmin(ax, bx), fmax(fmin(ay, by), fmin(az, bz))));
+    *t1 = fmin(*t1, fmin(fmax(ax, bx), fmin(fmax(ay, by), fmax(az, bz))) *
+                        (1.0f + 2.0f * 0x1.0p-23f));
+    return *t0 <= *t1;
+}
+#endif
+
 #endif

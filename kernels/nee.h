@@ -329,7 +329,7 @@ inline lfloat emission_weight(const Scene* sc, Hit hit, Surface s, LFloat3 p, lf
  *   in by that error along the ray, for the light's own intersection routine. Whatever else
  *   lies on the segment blocks it. */
 inline lmask segment_unblocked(const Scene* sc, Surface s, __global const Light* l, LFloat3 q,
-                               LFloat3 q_error, LFloat3 q_normal, LFloat3 wi) {
+                               LFloat3 q_error, LFloat3 q_normal, LFloat3 wi, lmask wanted) {
     const LFloat3 o = offset_ray_origin(s.p, s.p_error, s.n, wi);
     const bool triangle = l->kind == OBJECT_MESH;
     if (triangle) {
@@ -348,10 +348,18 @@ inline lmask segment_unblocked(const Scene* sc, Surface s, __global const Light*
     const lfloat t_max = dist - pull;
     /* within rounding of the surface: nothing fits between */
     free = free || !(t_max > 0.0f);
+#if CLPT_WIDE
+    free = free || !wanted;
+#endif
     if (lane_all(free)) {
         return free;
     }
+#if CLPT_WIDE
+    /* Lanes that trace nothing ask nothing (a mesh walks its tree lane by lane). */
+    const Hit hit = scene_intersect_until(sc, o, d, lselect(t_max, (lfloat)(0.0f), free));
+#else
     const Hit hit = scene_intersect_until(sc, o, d, t_max);
+#endif
     return free || hit.kind == HIT_NONE || (!triangle && light_is_hit(l, hit));
 }
 
@@ -501,17 +509,20 @@ inline float3 light_emitted(const Scene* sc, __global const Light* l) {
 }
 
 /* Light l's sample from the surface s of material `type` and `color` (shading normal ns), for
- * the path arriving from wo, in each lane: its MIS-weighted contribution f cos Le w / pdf, or
- * 0; *picked_pdf is its density where that is the same at every direction of l, else 0. */
+ * the path arriving from wo, in each lane (of `lanes`, wider than one): its MIS-weighted
+ * contribution f cos Le w / pdf, or 0; *picked_pdf is its density where that is the same at every direction of l, else 0. */
 inline LFloat3 light_contribution(const Scene* sc, __global const Light* l, Surface s, luint type,
                                   LFloat3 color, LFloat3 wo, LFloat3 ns, lfloat ux, lfloat uy,
-                                  lfloat* picked_pdf) {
+                                  lmask lanes, lfloat* picked_pdf) {
     LFloat3 wi, q, q_error, q_normal;
     lfloat pdf;
     lmask uniform;
     const LFloat3 none = v3_splat((float3)(0.0f));
     *picked_pdf = 0.0f;
     lmask ok = light_sample(l, s.p, ux, uy, &wi, &q, &q_error, &q_normal, &pdf, &uniform);
+#if CLPT_WIDE
+    ok = ok && lanes; /* the shadow rays of the lanes that picked l only */
+#endif
     if (!lane_any(ok)) {
         return none;
     }
@@ -521,7 +532,7 @@ inline LFloat3 light_contribution(const Scene* sc, __global const Light* l, Surf
     if (!lane_any(ok)) {
         return none;
     }
-    ok = ok && segment_unblocked(sc, s, l, q, q_error, q_normal, wi);
+    ok = ok && segment_unblocked(sc, s, l, q, q_error, q_normal, wi, ok);
     if (!lane_any(ok)) {
         return none;
     }
@@ -532,13 +543,14 @@ inline LFloat3 light_contribution(const Scene* sc, __global const Light* l, Surf
                      ok);
 }
 
-/* One light sample from the surface s in each lane (the arguments of light_contribution, u.x
- * picking the light): its MIS-weighted contribution, or 0. Delta materials take none: their f
+/* One light sample from the surface s in each lane (of `lanes`, wider than one; the arguments
+ * of light_contribution, u.x picking the light): its MIS-weighted contribution, or 0. Delta materials take none: their f
  * is 0 at every direction a light sample could choose. *picked is the entry it picked,
  * *picked_pdf that entry's density where it is the same at every direction, else 0
  * (emission_weight's, for the BSDF sample's hit). */
 inline LFloat3 sample_light(const Scene* sc, Surface s, luint type, LFloat3 color, LFloat3 wo,
-                            LFloat3 ns, LFloat4 u, luint* picked, lfloat* picked_pdf) {
+                            LFloat3 ns, LFloat4 u, lmask lanes, luint* picked,
+                            lfloat* picked_pdf) {
     const luint pick = pick_light(sc, u.x);
     *picked = pick;
     *picked_pdf = 0.0f;
@@ -546,13 +558,13 @@ inline LFloat3 sample_light(const Scene* sc, Surface s, luint type, LFloat3 colo
 #if CLPT_WIDE
     /* One pass per light some lane picked. */
     LFloat3 sum = v3_splat((float3)(0.0f));
-    lmask pending = takes;
+    lmask pending = takes && lanes;
     while (lane_any(pending)) {
         const uint entry = lane_uint(pick, lane_first(pending));
         const lmask same = pending && pick == entry;
         lfloat density;
         const LFloat3 c = light_contribution(sc, &sc->lights[entry], s, type, color, wo, ns, u.y,
-                                             u.z, &density);
+                                             u.z, same, &density);
         sum = v3_select(sum, c, same);
         *picked_pdf = select(*picked_pdf, density, same);
         pending = pending && !same;
@@ -562,7 +574,8 @@ inline LFloat3 sample_light(const Scene* sc, Surface s, luint type, LFloat3 colo
     if (!takes) {
         return (float3)(0.0f);
     }
-    return light_contribution(sc, &sc->lights[pick], s, type, color, wo, ns, u.y, u.z, picked_pdf);
+    return light_contribution(sc, &sc->lights[pick], s, type, color, wo, ns, u.y, u.z, takes,
+                              picked_pdf);
 #endif
 }
 

@@ -10,10 +10,10 @@
 #define CLPT_OBJECTS_H
 
 /* What is compiled follows the program switches of features.h. Programs of several lanes a
- * work-item (lanes.h) have spheres and planes without transforms and the object BVH so far
- * (docs/cpu-lanes.md). */
-#if CLPT_WIDE && (CLPT_TRANSFORMS || CLPT_MESHES || CLPT_REVSURFACES || CLPT_BVH)
-#error "a wide program (CLPT_WIDE) has spheres and planes only, without transforms or the BVH"
+ * work-item (lanes.h) have spheres, planes, meshes and transforms, without surfaces of
+ * revolution and the object BVH so far (docs/cpu-lanes.md). */
+#if CLPT_WIDE && (CLPT_REVSURFACES || CLPT_BVH)
+#error "a wide program (CLPT_WIDE) has no surfaces of revolution or object BVH yet"
 #endif
 #if CLPT_TRANSFORMS
 #include "transform.h"
@@ -102,6 +102,44 @@ typedef struct Surface {
 } Surface;
 
 #if CLPT_MESHES
+#if CLPT_WIDE
+/* Each lane's ray against mesh instance `index`, the lanes whose nearest hit so far (hit->t)
+ * is positive: those that enter the mesh's box walk its kd-tree one after another (scalar
+ * code, kdtree.h); the rest of the path runs on all lanes. Lanes with hit->t = 0 ask nothing. */
+inline void mesh_object_intersect(const Scene* sc, uint index, LFloat3 o, LFloat3 d, Hit* hit) {
+    __global const MeshInstance* inst = &sc->mesh_instances[index];
+    __global const MeshDesc* m = &sc->meshes[inst->mesh];
+    LFloat3 lo = o, ld = d;
+#if CLPT_TRANSFORMS
+    if (inst->transform != TRANSFORM_NONE) {
+        __global const float* inv = sc->transforms[inst->transform].inv;
+        lo = xform_point(inv, o);
+        ld = xform_vector(inv, d);
+    }
+#endif
+    lfloat t0 = 0.0f, t1 = hit->t;
+    const lmask enters = hit->t > 0.0f &&
+                         aabb_clip_lanes(vload3(0, m->lo), vload3(0, m->hi), lo,
+                                         make_lfloat3(1.0f / ld.x, 1.0f / ld.y, 1.0f / ld.z),
+                                         &t0, &t1);
+    for (uint lane = 0u; lane < CLPT_LANES; ++lane) {
+        if (!lane_on(enters, lane)) {
+            continue;
+        }
+        float t = lane_float(hit->t, lane), b1, b2;
+        uint prim;
+        if (kdtree_intersect(m, sc->kd_nodes, sc->kd_indices, sc->triangles, sc->vertices,
+                             lane_float3(lo, lane), lane_float3(ld, lane), &t, &prim, &b1, &b2)) {
+            lane_set_float(&hit->t, lane, t);
+            lane_set_uint(&hit->prim, lane, prim);
+            lane_set_float(&hit->b1, lane, b1);
+            lane_set_float(&hit->b2, lane, b2);
+            lane_set_uint(&hit->kind, lane, HIT_MESH);
+            lane_set_uint(&hit->index, lane, index);
+        }
+    }
+}
+#else
 inline void mesh_object_intersect(const Scene* sc, uint index, float3 o, float3 d, Hit* hit) {
     __global const MeshInstance* inst = &sc->mesh_instances[index];
     float3 lo = o, ld = d;
@@ -119,6 +157,7 @@ inline void mesh_object_intersect(const Scene* sc, uint index, float3 o, float3 
     }
 }
 #endif
+#endif
 
 /* The ray in a sphere's or plane's own space, with a unit direction: `scale` is the length
  * of the world's unit direction there, so object-space t = world t * scale. */
@@ -130,8 +169,8 @@ inline void to_object_space(const Scene* sc, uint transform, LFloat3* o, LFloat3
         __global const float* inv = sc->transforms[transform].inv;
         *o = xform_point(inv, *o);
         *d = xform_vector(inv, *d);
-        *scale = length(*d);
-        *d /= *scale;
+        *scale = v3_length(*d);
+        *d = v3_div(*d, *scale);
     }
 #endif
 }
@@ -301,27 +340,54 @@ inline Hit scene_intersect(const Scene* sc, LFloat3 o, LFloat3 d) {
 }
 
 #if CLPT_MESHES
-/* A mesh hit's surface in the mesh's space: p = b0 v0 + b1 v1 + b2 v2 with pbrt-v4's bound
- * gamma(7) (|b0 v0| + |b1 v1| + |b2 v2|), the face normal, and the interpolated vertex normal
- * turned to the face normal's side when the mesh has normals. */
-inline void mesh_surface(const Scene* sc, __global const MeshDesc* m, Hit hit, float3* p,
-                         float3* p_error, float3* n, float3* ns) {
-    const uint3 v = vload3(m->first_triangle + hit.prim, sc->triangles) + m->first_vertex;
-    const float3 v0 = vload3(v.x, sc->vertices);
-    const float3 v1 = vload3(v.y, sc->vertices);
-    const float3 v2 = vload3(v.z, sc->vertices);
-    const float b0 = 1.0f - hit.b1 - hit.b2;
-    *p = b0 * v0 + hit.b1 * v1 + hit.b2 * v2;
-    *p_error = error_gamma(7.0f) * (fabs(b0 * v0) + fabs(hit.b1 * v1) + fabs(hit.b2 * v2));
-    *n = normalize(cross(v1 - v0, v2 - v0));
+/* The vertices of each lane's triangle of mesh m (at width 1 the hit's; wider, those of the
+ * lanes in `lanes`, others left 0), or of its vertex normals (`normals` for `vertices`). */
+#if CLPT_WIDE
+inline void mesh_triangle(const Scene* sc, __global const MeshDesc* m, __global const float* at,
+                          luint prim, lmask lanes, LFloat3* v0, LFloat3* v1, LFloat3* v2) {
+    *v0 = *v1 = *v2 = v3_splat((float3)(0.0f));
+    for (uint lane = 0u; lane < CLPT_LANES; ++lane) {
+        if (lane_on(lanes, lane)) {
+            const uint3 v =
+                vload3(m->first_triangle + lane_uint(prim, lane), sc->triangles) + m->first_vertex;
+            lane_set_float3(v0, lane, vload3(v.x, at));
+            lane_set_float3(v1, lane, vload3(v.y, at));
+            lane_set_float3(v2, lane, vload3(v.z, at));
+        }
+    }
+}
+#else
+#define mesh_triangle(sc, m, at, prim, lanes, v0, v1, v2)                                   \
+    do {                                                                                     \
+        const uint3 v_ = vload3((m)->first_triangle + (prim), (sc)->triangles) +             \
+                         (m)->first_vertex;                                                  \
+        *(v0) = vload3(v_.x, (at));                                                          \
+        *(v1) = vload3(v_.y, (at));                                                          \
+        *(v2) = vload3(v_.z, (at));                                                          \
+    } while (0)
+#endif
+
+/* A mesh hit's surface in the mesh's space, in each lane of `lanes` that hit it: p = b0 v0 + b1
+ * v1 + b2 v2 with pbrt-v4's bound gamma(7) (|b0 v0| + |b1 v1| + |b2 v2|), the face normal, and
+ * the interpolated vertex normal turned to the face normal's side when the mesh has normals. */
+inline void mesh_surface(const Scene* sc, __global const MeshDesc* m, Hit hit, lmask lanes,
+                         LFloat3* p, LFloat3* p_error, LFloat3* n, LFloat3* ns) {
+    LFloat3 v0, v1, v2;
+    mesh_triangle(sc, m, sc->vertices, hit.prim, lanes, &v0, &v1, &v2);
+    const lfloat b0 = 1.0f - hit.b1 - hit.b2;
+    *p = v3_add(v3_add(v3_scale(b0, v0), v3_scale(hit.b1, v1)), v3_scale(hit.b2, v2));
+    *p_error = v3_scale(error_gamma(7.0f), v3_add(v3_add(v3_fabs(v3_scale(b0, v0)),
+                                                         v3_fabs(v3_scale(hit.b1, v1))),
+                                                  v3_fabs(v3_scale(hit.b2, v2))));
+    *n = v3_normalize(v3_cross(v3_sub(v1, v0), v3_sub(v2, v0)));
     *ns = *n;
     if (m->has_normals) {
-        const float3 s = b0 * vload3(v.x, sc->normals) + hit.b1 * vload3(v.y, sc->normals) +
-                         hit.b2 * vload3(v.z, sc->normals);
-        const float len = length(s);
-        if (len > 0.0f) {
-            *ns = dot(s, *n) < 0.0f ? -s / len : s / len;
-        }
+        LFloat3 n0, n1, n2;
+        mesh_triangle(sc, m, sc->normals, hit.prim, lanes, &n0, &n1, &n2);
+        const LFloat3 s =
+            v3_add(v3_add(v3_scale(b0, n0), v3_scale(hit.b1, n1)), v3_scale(hit.b2, n2));
+        const lfloat len = v3_length(s);
+        *ns = v3_select(*ns, v3_div(s, lselect(len, -len, v3_dot(s, *n) < 0.0f)), len > 0.0f);
     }
 }
 #endif
@@ -338,7 +404,8 @@ inline Surface object_surface(const Scene* sc, uint kind, uint index, Hit hit, L
         __global const MeshInstance* inst = &sc->mesh_instances[index];
         transform = inst->transform;
         s.material = inst->material;
-        mesh_surface(sc, &sc->meshes[inst->mesh], hit, &s.p, &s.p_error, &s.n, &s.ns);
+        mesh_surface(sc, &sc->meshes[inst->mesh], hit, hit.kind == HIT_MESH && hit.index == index,
+                     &s.p, &s.p_error, &s.n, &s.ns);
     } else
 #endif
     {

@@ -162,7 +162,13 @@ inline lmask path_bounce(const Scene* sc, Path* p, lmask active) {
         return alive;
     }
     const LFloat3 d = p->d; /* the ray's direction; p->d becomes the next one */
+#if CLPT_WIDE
+    /* Ended lanes ask nothing (a mesh walks its tree lane by lane). */
+    const Hit hit =
+        scene_intersect_until(sc, p->o, d, lselect((lfloat)(0.0f), (lfloat)(INFINITY), alive));
+#else
     const Hit hit = scene_intersect(sc, p->o, d);
+#endif
     alive = alive && hit.kind != HIT_NONE; /* the background is black */
     if (!lane_any(alive)) {
         return alive;
@@ -196,8 +202,8 @@ inline lmask path_bounce(const Scene* sc, Path* p, lmask active) {
     p->sampled_light = alive && !bsdf_is_delta(sm.type) && params->num_lights > 0u;
     if (lane_any(p->sampled_light)) {
         const LFloat3 light = sample_light(sc, s, sm.type, sm.color, v3_neg(d), sm.shading_normal,
-                                           rng_light4(&p->rng, p->depth), &p->prev_light,
-                                           &p->prev_light_pdf);
+                                           rng_light4(&p->rng, p->depth), p->sampled_light,
+                                           &p->prev_light, &p->prev_light_pdf);
         p->radiance = v3_select(p->radiance, v3_add(p->radiance, v3_mul(p->throughput, light)),
                                 p->sampled_light);
     }

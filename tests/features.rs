@@ -269,6 +269,21 @@ fn cpus_get_lanes_where_the_program_allows() {
         16,
         "light sampling"
     );
+    let mut meshes = plain.clone();
+    meshes.meshes = true;
+    meshes.transforms = true;
+    assert_eq!(
+        meshes.wide_lanes(&device(false, 16), None),
+        16,
+        "meshes and transforms"
+    );
+    let mut revolved = plain.clone();
+    revolved.revsurfaces = true;
+    assert_eq!(
+        revolved.wide_lanes(&device(false, 16), None),
+        1,
+        "surfaces of revolution"
+    );
     let mut bvh = plain.clone();
     bvh.bvh = true;
     assert_eq!(bvh.wide_lanes(&device(false, 16), None), 1, "the BVH");

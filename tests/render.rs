@@ -228,7 +228,8 @@ fn same_seed_same_bits_however_split_other_seed_differs() {
 /// allows) trace the scalar program's paths with the same random numbers, so their images
 /// agree up to rounding (a rounding can flip one path's roulette now and then: not bit for
 /// bit), whatever the launch split (bit for bit, as the scalar program): smallpt (mirror,
-/// glass), the ceiling-lit room (planes), and a thin lens, with light sampling and without. On a
+/// glass), the ceiling-lit room (planes), a thin lens, and transformed meshes, with light
+/// sampling and without. On a
 /// GPU device (the device run on the H200) it checks that --lanes leaves one path a work-item.
 #[test]
 fn wide_programs_render_the_scalar_image() {
@@ -247,11 +248,21 @@ fn wide_programs_render_the_scalar_image() {
     let mut lens = smallpt_at(40, 30);
     lens.camera.flength = 100.0;
     lens.camera.aperture = 4.0;
+    // Three transformed meshes (one smooth) through a thin lens: each lane walks the kd-tree
+    // alone (kernels/objects.h).
+    let mut meshes = Scene::load(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/meshes.txt"
+    )))
+    .unwrap_or_else(|e| panic!("{e}"));
+    meshes.camera.width = 40;
+    meshes.camera.height = 24;
     let gpu = common::device().description.is_gpu;
     let scenes = [
         ("smallpt", smallpt_at(40, 30)),
         ("room", room),
         ("lens", lens),
+        ("meshes", meshes),
     ];
     for ((name, scene), light_sampling) in scenes
         .iter()

@@ -138,20 +138,15 @@ impl Features {
     /// The lanes a work-item of this program carries on `device` (kernels/lanes.h,
     /// docs/cpu-lanes.md): on a CPU, `requested` (`--lanes`) or else the device's native float
     /// vector width (8 with AVX2, 16 with AVX-512), where the program has only what the wide
-    /// kernels are written for so far: spheres and planes without transforms or the object
-    /// BVH, no texture maps. Elsewhere 1; a GPU's warp already runs 32 work-items in lock
+    /// kernels are written for so far: spheres, planes and meshes, transformed or not, without
+    /// the object BVH or texture maps. Elsewhere 1; a GPU's warp already runs 32 work-items in lock
     /// step.
     pub fn wide_lanes(
         &self,
         device: &crate::device::DeviceDescription,
         requested: Option<u32>,
     ) -> u32 {
-        let written = !(self.meshes
-            || self.revsurfaces
-            || self.bvh
-            || self.transforms
-            || self.textures()
-            || self.regenerate);
+        let written = !(self.revsurfaces || self.bvh || self.textures() || self.regenerate);
         if device.is_gpu || !written {
             return 1;
         }
