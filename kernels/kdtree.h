@@ -23,6 +23,28 @@ inline float3 mesh_vertex(__global const float* vertices, uint i) {
     return vload3(i, vertices);
 }
 
+/* Updates *t, *prim, *b1, *b2 with the nearest hit in (0, *t) of the ray with the `count`
+ * triangles of mesh m numbered in `list` (a leaf of its tree); whether there was one. */
+inline bool leaf_intersect(__global const MeshDesc* m, __global const uint* list, uint count,
+                           __global const uint* triangles, __global const float* vertices,
+                           const WatertightRay* ray, float* t, uint* prim, float* b1, float* b2) {
+    bool found = false;
+    for (uint i = 0u; i < count; ++i) {
+        const uint tri = list[i];
+        const uint3 v = vload3(m->first_triangle + tri, triangles) + m->first_vertex;
+        float th, u1, u2;
+        if (triangle_intersect(ray, mesh_vertex(vertices, v.x), mesh_vertex(vertices, v.y),
+                               mesh_vertex(vertices, v.z), *t, &th, &u1, &u2)) {
+            *t = th;
+            *prim = tri;
+            *b1 = u1;
+            *b2 = u2;
+            found = true;
+        }
+    }
+    return found;
+}
+
 /* Updates *t, *prim, *b1, *b2 with the nearest hit in (0, *t) of o + t d with mesh `m`. */
 inline bool kdtree_intersect(__global const MeshDesc* m, __global const KdNode* kd_nodes,
                              __global const uint* kd_indices, __global const uint* triangles,
@@ -74,21 +96,8 @@ inline bool kdtree_intersect(__global const MeshDesc* m, __global const KdNode* 
             }
             continue;
         }
-        const uint count = n.flags >> 2;
-        __global const uint* list = kd_indices + m->first_index + n.data;
-        for (uint i = 0u; i < count; ++i) {
-            const uint tri = list[i];
-            const uint3 v = vload3(m->first_triangle + tri, triangles) + m->first_vertex;
-            float th, u1, u2;
-            if (triangle_intersect(&ray, mesh_vertex(vertices, v.x), mesh_vertex(vertices, v.y),
-                                   mesh_vertex(vertices, v.z), *t, &th, &u1, &u2)) {
-                *t = th;
-                *prim = tri;
-                *b1 = u1;
-                *b2 = u2;
-                found = true;
-            }
-        }
+        found |= leaf_intersect(m, kd_indices + m->first_index + n.data, n.flags >> 2, triangles,
+                                vertices, &ray, t, prim, b1, b2);
         if (top == 0) {
             break;
         }

@@ -27,6 +27,9 @@
 #if CLPT_MESHES
 #include "triangle.h"
 #include "kdtree.h"
+#if CLPT_WIDE
+#include "wide_bvh.h"
+#endif
 #endif
 #if CLPT_REVSURFACES
 #include "revsurface.h"
@@ -104,8 +107,9 @@ typedef struct Surface {
 #if CLPT_MESHES
 #if CLPT_WIDE
 /* Each lane's ray against mesh instance `index`, the lanes whose nearest hit so far (hit->t)
- * is positive: those that enter the mesh's box walk its kd-tree one after another (scalar
- * code, kdtree.h); the rest of the path runs on all lanes. Lanes with hit->t = 0 ask nothing. */
+ * is positive: those that enter the mesh's box walk its 8-wide BVH one after another
+ * (wide_bvh.h: a ray's eight boxes a node on float8); the rest of the path runs on all lanes.
+ * Lanes with hit->t = 0 ask nothing. */
 inline void mesh_object_intersect(const Scene* sc, uint index, LFloat3 o, LFloat3 d, Hit* hit) {
     __global const MeshInstance* inst = &sc->mesh_instances[index];
     __global const MeshDesc* m = &sc->meshes[inst->mesh];
@@ -128,8 +132,9 @@ inline void mesh_object_intersect(const Scene* sc, uint index, LFloat3 o, LFloat
         }
         float t = lane_float(hit->t, lane), b1, b2;
         uint prim;
-        if (kdtree_intersect(m, sc->kd_nodes, sc->kd_indices, sc->triangles, sc->vertices,
-                             lane_float3(lo, lane), lane_float3(ld, lane), &t, &prim, &b1, &b2)) {
+        if (wide_bvh_intersect(m, (__global const WideBvhNode*)sc->kd_nodes, sc->kd_indices,
+                               sc->triangles, sc->vertices, lane_float3(lo, lane),
+                               lane_float3(ld, lane), &t, &prim, &b1, &b2)) {
             lane_set_float(&hit->t, lane, t);
             lane_set_uint(&hit->prim, lane, prim);
             lane_set_float(&hit->b1, lane, b1);

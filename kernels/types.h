@@ -51,6 +51,24 @@ typedef struct KdNode {
 } KdNode;
 CLPT_ASSERT_SIZE(KdNode, 8);
 
+/* A node of a mesh's 8-wide BVH (src/accel/wide_bvh.rs, wide_bvh.h), for a CPU's wide
+ * programs: the boxes of up to eight children as arrays per bound, so that one ray tests all
+ * eight at once on float8. A child is another node's index (relative to the mesh's first node),
+ * WIDE_BVH_LEAF | (count - 1) << 28 | first index (relative to the mesh's first index), or
+ * WIDE_BVH_EMPTY (its box empty). */
+#define WIDE_BVH_LEAF 0x80000000u
+#define WIDE_BVH_EMPTY 0xFFFFFFFFu
+typedef struct WideBvhNode {
+    float lo_x[8];
+    float hi_x[8];
+    float lo_y[8];
+    float hi_y[8];
+    float lo_z[8];
+    float hi_z[8];
+    uint child[8];
+} WideBvhNode;
+CLPT_ASSERT_SIZE(WideBvhNode, 224);
+
 /* A node of the object BVH (bvh.h) holding the boxes of both its children, so traversal tests
  * the two and descends into the nearer one first. A child is another node's index, or
  * BVH_LEAF | object index, or BVH_EMPTY (only in a one-object tree). */

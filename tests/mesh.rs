@@ -8,7 +8,7 @@ mod common;
 
 use clpt::device::upload::PackedScene;
 use clpt::scene::Scene;
-use clpt::scene::mesh::TriangleMesh;
+use clpt::scene::mesh::{self, TriangleMesh};
 use clpt::scene::procedural;
 use glam::{DMat4, DVec3};
 use rand::rngs::SmallRng;
@@ -37,6 +37,25 @@ fn scene_in(dir: &Path, objects: &str) -> Scene {
 
 fn pack(scene: &Scene) -> PackedScene {
     PackedScene::new(scene, u64::MAX).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The device's hits of `rays` in `scene` by both mesh traversals: the scalar program's
+/// kd-trees, and the 8-wide BVHs of a CPU's wide program (accel/wide_bvh.rs, kernels/wide_bvh.h)
+/// in the program of 16 lanes a work-item.
+fn probe_both(
+    device: &clpt::device::Device,
+    scene: &Scene,
+    rays: &[[f32; 9]],
+) -> [(&'static str, Vec<[f32; 16]>); 2] {
+    let wide = PackedScene::with_limits(scene, u64::MAX, mesh::DEFAULT_MAX_FILE_BYTES, true)
+        .unwrap_or_else(|e| panic!("{e}"));
+    [
+        ("kd-tree", common::probe_hits(device, &pack(scene), rays)),
+        (
+            "wide BVH",
+            common::probe_hits_in_lanes(device, &wide, rays, 16),
+        ),
+    ]
 }
 
 fn ray(o: DVec3, d: DVec3) -> [f32; 9] {
@@ -174,7 +193,6 @@ fn rays_at_shared_edges_and_vertices_never_pass_through() {
         write_mesh(&dir, name, &mesh);
         // Reload as the renderer does (f32 positions from the OBJ text).
         let scene = scene_in(&dir, &format!("Mesh {{ obj_file {name} }}"));
-        let packed = pack(&scene);
         let loaded = TriangleMesh::load(&dir.join(name)).unwrap();
         // Which triangles meet at each edge and each vertex.
         let mut at_edge: std::collections::HashMap<(u32, u32), Vec<usize>> = Default::default();
@@ -195,11 +213,10 @@ fn rays_at_shared_edges_and_vertices_never_pass_through() {
             );
             (b - a).cross(c - a).normalize()
         };
-        let mut passed_through = 0;
-        for _ in 0..5 {
-            let mut rays = Vec::with_capacity(100_000);
-            let mut dists = Vec::with_capacity(100_000);
-            while rays.len() < 100_000 {
+        let mut rays = Vec::with_capacity(500_000);
+        let mut dists = Vec::with_capacity(500_000);
+        {
+            while rays.len() < 500_000 {
                 let t = loaded.triangles[rng.random_range(0..loaded.triangles.len())];
                 let k = rng.random_range(0..3);
                 let (ia, ib) = (t[k], t[(k + 1) % 3]);
@@ -229,12 +246,14 @@ fn rays_at_shared_edges_and_vertices_never_pass_through() {
                 rays.push(ray(o, p - o));
                 dists.push(dist);
             }
-            let got = common::probe_hits(&device, &packed, &rays);
+        }
+        let mut passed_through = 0;
+        for (accel, got) in probe_both(&device, &scene, &rays) {
             for (g, dist) in got.iter().zip(&dists) {
                 // Something of the mesh must be hit no later than the aimed-at point.
                 if g[1] != HIT_MESH || g[0] as f64 > dist * (1.0 + 1e-4) + 1e-5 {
                     if passed_through < 5 {
-                        eprintln!("{name}: kind {} t {} want <= {dist}", g[1], g[0]);
+                        eprintln!("{name}, {accel}: kind {} t {} want <= {dist}", g[1], g[0]);
                     }
                     passed_through += 1;
                 }
@@ -242,7 +261,7 @@ fn rays_at_shared_edges_and_vertices_never_pass_through() {
         }
         assert_eq!(
             passed_through, 0,
-            "{name}: {passed_through} of 500000 rays passed through"
+            "{name}: {passed_through} of 500000 rays (each traversal) passed through"
         );
     }
     std::fs::remove_dir_all(dir).ok();
@@ -261,7 +280,6 @@ fn kdtree_traversal_matches_brute_force_on_generated_meshes() {
         write_mesh(&dir, name, &mesh);
         let loaded = TriangleMesh::load(&dir.join(name)).unwrap();
         let scene = scene_in(&dir, &format!("Mesh {{ obj_file {name} }}"));
-        let packed = pack(&scene);
         let bounds = clpt::accel::aabb::Aabb::from_points(
             loaded
                 .positions
@@ -281,15 +299,17 @@ fn kdtree_traversal_matches_brute_force_on_generated_meshes() {
                 ray(o, target - o)
             })
             .collect();
-        let got = common::probe_hits(&device, &packed, &rays);
-        let compared = check_against(
-            &loaded,
-            &rays,
-            &got,
-            |o, d| brute_force(&loaded, o, d),
-            name,
-        );
-        assert!(compared > 25_000, "{name}: only {compared} hits compared");
+        for (accel, got) in probe_both(&device, &scene, &rays) {
+            let what = format!("{name}, {accel}");
+            let compared = check_against(
+                &loaded,
+                &rays,
+                &got,
+                |o, d| brute_force(&loaded, o, d),
+                &what,
+            );
+            assert!(compared > 25_000, "{what}: only {compared} hits compared");
+        }
     }
     std::fs::remove_dir_all(dir).ok();
 }
@@ -304,7 +324,6 @@ fn dragon_traversal_matches_host_tree_and_brute_force() {
     let mut rng = SmallRng::seed_from_u64(43);
     let dir = temp_dir("dragon");
     let scene = scene_in(&dir, &format!("Mesh {{ obj_file {} }}", path.display()));
-    let packed = pack(&scene);
     let mesh = TriangleMesh::load(&path).unwrap();
     let tree =
         clpt::accel::kdtree::KdTree::build(&mesh.positions, &mesh.triangles, &Default::default());
@@ -315,7 +334,6 @@ fn dragon_traversal_matches_host_tree_and_brute_force() {
             ray(o, target - o)
         })
         .collect();
-    let got = common::probe_hits(&device, &packed, &rays);
     let host = |o: DVec3, d: DVec3| {
         tree.intersect(&mesh.positions, &mesh.triangles, o, d, 0.0, f64::INFINITY)
             .map(|(t, tri)| {
@@ -331,16 +349,20 @@ fn dragon_traversal_matches_host_tree_and_brute_force() {
                 (t, tri, u, v)
             })
     };
-    let compared = check_against(&mesh, &rays[..], &got, host, "dragon vs host kd-tree");
-    assert!(compared > 30_000, "only {compared} dragon hits compared");
-    let brute = check_against(
-        &mesh,
-        &rays[..300],
-        &got[..300],
-        |o, d| brute_force(&mesh, o, d),
-        "dragon vs brute force",
-    );
-    assert!(brute > 60, "only {brute} brute-force hits compared");
+    for (accel, got) in probe_both(&device, &scene, &rays) {
+        let what = format!("dragon ({accel}) vs host kd-tree");
+        let compared = check_against(&mesh, &rays[..], &got, host, &what);
+        assert!(compared > 30_000, "{what}: only {compared} hits compared");
+        let what = format!("dragon ({accel}) vs brute force");
+        let brute = check_against(
+            &mesh,
+            &rays[..300],
+            &got[..300],
+            |o, d| brute_force(&mesh, o, d),
+            &what,
+        );
+        assert!(brute > 60, "{what}: only {brute} hits compared");
+    }
     std::fs::remove_dir_all(dir).ok();
 }
 

@@ -19,6 +19,8 @@
 #             (-v) at each, into $OUT/launches.csv (about 4 minutes on the H200)
 # mitsuba     tools/mitsuba-compare.py --cuda on the room and the dragon room (needs .whl/ from tools/pack-mitsuba-wheels carried)
 # bench       cold builds and rates of each scene's program and of all features; the goblet alone
+# programs    whether a scene's program and the all-features one render the same bits on the GPU
+#             (tests/features.rs' question), as built and with fma contraction off
 # Results under $OUT, one file a stage (at most 8 files come back).
 echo libnvidia-opencl.so.1 > /etc/OpenCL/vendors/nvidia.icd
 repo=$PWD
@@ -171,6 +173,31 @@ mitsuba() {
       --seconds 2 --reference-factor 8 --mitsuba-samplers independent,ldsampler,multijitter,orthogonal \
       --out /tmp/cmp-$scene
   done
+}
+
+programs() {
+  export CLPT_DEVICE=NVIDIA
+  # The kernels again, with `#pragma OPENCL FP_CONTRACT OFF` first (triangle.h's own switch back
+  # to on turned off too): where only contraction tells the programs apart, these agree.
+  rm -rf /tmp/kc && cp -r kernels /tmp/kc
+  sed -i '1i #pragma OPENCL FP_CONTRACT OFF' /tmp/kc/pathtracer.cl
+  sed -i 's/FP_CONTRACT ON/FP_CONTRACT OFF/' /tmp/kc/triangle.h
+  for s in textures meshes; do for light in on off; do for k in as-built contraction-off; do
+    local extra=()
+    [ $k = contraction-off ] && extra=(--kernels /tmp/kc)
+    for f in specialised all; do
+      local all=()
+      [ $f = all ] && all=(--all-features)
+      ./clpt render scenes/$s.txt --width 40 --height 24 --spp 4 --seed 11 --light-sampling $light \
+        --rr-threshold 0.3 --lanes 1 "${all[@]}" "${extra[@]}" -q -o /tmp/p-$f.pfm 2>&1 |
+        grep -v " spp in \|^estimator: "
+    done
+    if cmp -s /tmp/p-specialised.pfm /tmp/p-all.pfm; then
+      echo "$s, light sampling $light, $k: the same bits"
+    else
+      echo "$s, light sampling $light, $k: differ: $(./clpt compare /tmp/p-specialised.pfm /tmp/p-all.pfm 2>&1 | tr '\n' ' ')"
+    fi
+  done; done; done
 }
 
 bench() {

@@ -141,6 +141,20 @@ def mitsuba_render(mi, dr, scene, spp, seed, path):
     return seconds, scene.sensors()[0].sampler().sample_count()
 
 
+def mitsuba_reference(mi, dr, scene, spp, k, path):
+    """The mean of k renders of `spp` samples with seeds 1000, 1001, ...: one render of k times
+    the samples fails on the GPU once it needs several wavefronts ("sample_count should be a
+    multiple of samples_per_wavefront"). Returns the samples a pixel in all."""
+    total = None
+    for i in range(k):
+        image = mi.render(scene, spp=spp, seed=1000 + i)
+        total = image if total is None else total + image
+    mean = total / k
+    dr.eval(mean)
+    mi.util.write_bitmap(path, mean, write_async=False)
+    return scene.sensors()[0].sampler().sample_count() * k
+
+
 def clpt_render(clpt, scene, args, path, cwd):
     """Renders in `cwd`, where seed/ names the original's data (the scenes' meshes)."""
     out = subprocess.run(
@@ -213,7 +227,7 @@ def main():
         mitsuba_render(mi, dr, scene, m_spp, 1, out("warm.exr"))
         image, ref = f"mitsuba-{sampler}.exr", f"mitsuba-{sampler}-ref.exr"
         m_seconds, m_spp = mitsuba_render(mi, dr, scene, m_spp, 1, out(image))  # compiled above
-        _, ref_spp = mitsuba_render(mi, dr, scene, m_spp * k, 1000, out(ref))
+        ref_spp = mitsuba_reference(mi, dr, scene, m_spp, k, out(ref))
         name = f"Mitsuba 3 {mi.__version__} {mi.variant()}, sampler {sampler}"
         mitsuba_rows.append((name, image, ref, m_spp, m_seconds, ref_spp))
 

@@ -235,8 +235,8 @@ pub fn intersect_triangle(
 
 /// A triangle the tree holds: its number in the mesh and its vertices.
 #[derive(Clone, Copy, Debug)]
-struct Tri {
-    number: u32,
+pub(crate) struct Tri {
+    pub(crate) number: u32,
     v: [[f32; 3]; 3],
 }
 
@@ -245,7 +245,7 @@ impl Tri {
         self.v.map(|p| DVec3::from(p.map(f64::from)))
     }
 
-    fn bounds(&self) -> Aabb {
+    pub(crate) fn bounds(&self) -> Aabb {
         Aabb::from_points(self.vertices())
     }
 }
@@ -269,7 +269,7 @@ fn valid_triangle(positions: &[[f32; 3]], triangles: &[[u32; 3]], index: usize) 
 }
 
 /// Every valid triangle, in order.
-fn valid_triangles(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<Tri> {
+pub(crate) fn valid_triangles(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<Tri> {
     (0..triangles.len())
         .filter_map(|i| valid_triangle(positions, triangles, i))
         .collect()

@@ -46,6 +46,12 @@ pub const BVH_LEAF: u32 = 0x8000_0000;
 /// `BVH_EMPTY` in `types.h`: the missing second child of a one-object BVH.
 pub const BVH_EMPTY: u32 = u32::MAX;
 
+/// `WIDE_BVH_LEAF` in `types.h`: marks a wide BVH child that is a leaf (count less one in bits
+/// 28 to 30, first index below).
+pub const WIDE_BVH_LEAF: u32 = 0x8000_0000;
+/// `WIDE_BVH_EMPTY` in `types.h`: an unused child slot.
+pub const WIDE_BVH_EMPTY: u32 = u32::MAX;
+
 /// `KdNode` in `types.h`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -216,6 +222,20 @@ impl Sphere {
     }
 }
 
+/// `WideBvhNode` in `types.h` (accel/wide_bvh.rs).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct WideBvhNode {
+    pub lo_x: [f32; 8],
+    pub hi_x: [f32; 8],
+    pub lo_y: [f32; 8],
+    pub hi_y: [f32; 8],
+    pub lo_z: [f32; 8],
+    pub hi_z: [f32; 8],
+    pub child: [u32; 8],
+}
+const _: () = assert!(size_of::<WideBvhNode>() == 224);
+
 /// `MeshDesc` in `types.h`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -356,6 +376,10 @@ pub const LAYOUT: &[StructLayout] = &[
         width => "width", height => "height",
     }),
     layout!(KdNode, "KdNode", { flags => "flags", data => "data" }),
+    layout!(WideBvhNode, "WideBvhNode", {
+        lo_x => "lo_x", hi_x => "hi_x", lo_y => "lo_y", hi_y => "hi_y", lo_z => "lo_z",
+        hi_z => "hi_z", child => "child",
+    }),
     layout!(BvhNode, "BvhNode", {
         lo0 => "lo0", hi0 => "hi0", lo1 => "lo1", hi1 => "hi1", child => "child",
     }),

@@ -29,6 +29,7 @@ const EMBEDDED: &[(&str, &str)] = &[
     ("transform.h", include_str!("../../kernels/transform.h")),
     ("triangle.h", include_str!("../../kernels/triangle.h")),
     ("kdtree.h", include_str!("../../kernels/kdtree.h")),
+    ("wide_bvh.h", include_str!("../../kernels/wide_bvh.h")),
     ("bvh.h", include_str!("../../kernels/bvh.h")),
     ("revsurface.h", include_str!("../../kernels/revsurface.h")),
     ("objects.h", include_str!("../../kernels/objects.h")),

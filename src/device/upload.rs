@@ -1,7 +1,7 @@
 //! Host scene → device data: packs the f64 scene into the f32 structs of `kernels/types.h`
 //! ([`PackedScene`], testable without a device): materials and their texture maps, spheres,
-//! planes, transforms, meshes (each OBJ file loaded and its kd-tree built once, however many
-//! instances use it), the object table and the BVH over it; and uploads them
+//! planes, transforms, meshes (each OBJ file loaded and its kd-tree, or a CPU's wide BVH, built
+//! once, however many instances use it), the object table and the BVH over it; and uploads them
 //! ([`SceneBuffers`]).
 //!
 //! Precision. f32 spaces its values by 2^-24 of their size, so a scene stored as written
@@ -22,12 +22,13 @@
 use super::Device;
 use super::layout::{
     self, BvhNode, KdNode, Light, Material, MeshDesc, MeshInstance, ObjectRef, Plane, RenderParams,
-    RevSurface, Sphere, Transform,
+    RevSurface, Sphere, Transform, WideBvhNode,
 };
 use super::lights;
 use crate::accel::aabb::Aabb;
 use crate::accel::bvh::Bvh;
 use crate::accel::kdtree::{KdParams, KdTree};
+use crate::accel::wide_bvh::WideBvh;
 use crate::error::{Error, Result};
 use crate::scene::camera::CameraBasis;
 use crate::scene::mesh::{self, TriangleMesh};
@@ -48,7 +49,7 @@ pub struct MeshInfo {
     pub duplicates: usize,
     pub instances: usize,
     pub build_time: Duration,
-    /// Device bytes of its vertices, normals, triangles and kd-tree.
+    /// Device bytes of its vertices, normals, triangles and kd-tree (or wide BVH).
     pub bytes: usize,
 }
 
@@ -69,7 +70,12 @@ pub struct PackedScene {
     pub transforms: Vec<Transform>,
     pub meshes: Vec<MeshDesc>,
     pub mesh_instances: Vec<MeshInstance>,
+    /// Whether meshes carry 8-wide BVHs ([`WideBvh`], a CPU's wide program: kernels/lanes.h)
+    /// in `wide_nodes`, instead of kd-trees in `kd_nodes`; either way their leaves' triangle
+    /// lists are in `kd_indices`, and the kernels' mesh-node buffer holds the one kind.
+    pub wide_bvh: bool,
     pub kd_nodes: Vec<KdNode>,
+    pub wide_nodes: Vec<WideBvhNode>,
     pub kd_indices: Vec<u32>,
     pub triangles: Vec<[u32; 3]>,
     pub vertices: Vec<[f32; 3]>,
@@ -130,18 +136,25 @@ fn rows3x4(m: &DMat4) -> [f32; 12] {
 }
 
 impl PackedScene {
-    /// Packs `scene` with OBJ files of at most [`mesh::DEFAULT_MAX_FILE_BYTES`]
-    /// ([`PackedScene::with_limits`]).
+    /// Packs `scene` with OBJ files of at most [`mesh::DEFAULT_MAX_FILE_BYTES`], meshes in
+    /// kd-trees ([`PackedScene::with_limits`]).
     pub fn new(scene: &Scene, max_texture_pixels: u64) -> Result<PackedScene> {
-        PackedScene::with_limits(scene, max_texture_pixels, mesh::DEFAULT_MAX_FILE_BYTES)
+        PackedScene::with_limits(
+            scene,
+            max_texture_pixels,
+            mesh::DEFAULT_MAX_FILE_BYTES,
+            false,
+        )
     }
 
     /// Packs `scene`, loading its texture maps (each image at most `max_texture_pixels`) and
-    /// meshes (each OBJ file at most `max_mesh_bytes`), and building the kd-trees and the BVH.
+    /// meshes (each OBJ file at most `max_mesh_bytes`), and building the BVH and each mesh's
+    /// kd-tree, or its 8-wide BVH with `wide_bvh` (for a CPU's wide program).
     pub fn with_limits(
         scene: &Scene,
         max_texture_pixels: u64,
         max_mesh_bytes: u64,
+        wide_bvh: bool,
     ) -> Result<PackedScene> {
         let textures = TexturePack::load(scene, max_texture_pixels)?;
         let mut camera = CameraBasis::new(&scene.camera)?;
@@ -150,6 +163,7 @@ impl PackedScene {
         let mut packed = PackedScene {
             origin,
             camera,
+            wide_bvh,
             ..PackedScene::default()
         };
         // Object-to-device transforms: the scene's, then the move to the camera-relative origin.
@@ -442,15 +456,38 @@ impl PackedScene {
 
     fn push_mesh(&mut self, mesh: TriangleMesh) -> Result<u32> {
         let start = Instant::now();
-        let tree = KdTree::build(&mesh.positions, &mesh.triangles, &KdParams::default());
-        let (lo, hi) = tree.bounds.to_f32_outward();
         let too_big = |what: &str| Error::Mesh {
             path: mesh.path.clone(),
             message: format!("the scene's meshes exceed 2^32 {what}"),
         };
+        let first_node = if self.wide_bvh {
+            self.wide_nodes.len()
+        } else {
+            self.kd_nodes.len()
+        };
+        let first_node = u32::try_from(first_node).map_err(|_| too_big("tree nodes"))?;
+        let first_index = u32::try_from(self.kd_indices.len()).map_err(|_| too_big("indices"))?;
+        let (bounds, node_bytes) = if self.wide_bvh {
+            let tree =
+                WideBvh::build(&mesh.positions, &mesh.triangles).ok_or_else(|| Error::Mesh {
+                    path: mesh.path.clone(),
+                    message: "more than 2^28 triangles: too many for a CPU's wide BVH (--lanes 1 \
+                              renders it with a kd-tree)"
+                        .into(),
+                })?;
+            self.wide_nodes.extend(&tree.nodes);
+            self.kd_indices.extend(&tree.indices);
+            (tree.bounds, tree.nodes.len() * size_of::<WideBvhNode>())
+        } else {
+            let tree = KdTree::build(&mesh.positions, &mesh.triangles, &KdParams::default());
+            self.kd_nodes.extend(&tree.nodes);
+            self.kd_indices.extend(&tree.indices);
+            (tree.bounds, tree.nodes.len() * size_of::<KdNode>())
+        };
+        let (lo, hi) = bounds.to_f32_outward();
         let desc = MeshDesc {
-            first_node: u32::try_from(self.kd_nodes.len()).map_err(|_| too_big("kd-tree nodes"))?,
-            first_index: u32::try_from(self.kd_indices.len()).map_err(|_| too_big("indices"))?,
+            first_node,
+            first_index,
             first_triangle: u32::try_from(self.triangles.len())
                 .map_err(|_| too_big("triangles"))?,
             first_vertex: u32::try_from(self.vertices.len()).map_err(|_| too_big("vertices"))?,
@@ -458,13 +495,11 @@ impl PackedScene {
             lo,
             hi,
         };
-        let bytes = tree.nodes.len() * 8
-            + tree.indices.len() * 4
+        let bytes = node_bytes
+            + (self.kd_indices.len() - first_index as usize) * 4
             + mesh.triangles.len() * 12
             + mesh.positions.len() * 12
             + mesh.normals.as_ref().map_or(0, |n| n.len() * 12);
-        self.kd_nodes.extend(&tree.nodes);
-        self.kd_indices.extend(&tree.indices);
         self.triangles.extend(&mesh.triangles);
         self.vertices.extend(&mesh.positions);
         if let Some(normals) = &mesh.normals {
@@ -506,9 +541,14 @@ impl PackedScene {
             self.bvh.len(),
             self.objects.len() as u32 - self.first_unbounded
         );
+        let tree = if self.wide_bvh {
+            "8-wide BVH"
+        } else {
+            "kd-tree"
+        };
         for m in &self.mesh_info {
             out.push_str(&format!(
-                "\nmesh {}: {} triangles ({} degenerate and {} copies dropped), {} instance(s), kd-tree built in {:.3} s, {} bytes ({:.1} per triangle)",
+                "\nmesh {}: {} triangles ({} degenerate and {} copies dropped), {} instance(s), {tree} built in {:.3} s, {} bytes ({:.1} per triangle)",
                 m.path.display(),
                 m.triangles,
                 m.degenerate,
@@ -637,7 +677,11 @@ impl SceneBuffers {
             transforms: upload_slice(device, &packed.transforms)?,
             meshes: upload_slice(device, &packed.meshes)?,
             mesh_instances: upload_slice(device, &packed.mesh_instances)?,
-            kd_nodes: upload_slice(device, &packed.kd_nodes)?,
+            kd_nodes: if packed.wide_bvh {
+                upload_slice(device, &packed.wide_nodes)?
+            } else {
+                upload_slice(device, &packed.kd_nodes)?
+            },
             kd_indices: upload_slice(device, &packed.kd_indices)?,
             triangles: upload_slice(device, &packed.triangles)?,
             vertices: upload_slice(device, &packed.vertices)?,

@@ -593,8 +593,20 @@ impl<'d> Renderer<'d> {
             scene.camera.height,
             memory::host_available_bytes(),
         )?;
-        let packed =
-            PackedScene::with_limits(scene, options.max_texture_pixels, options.max_mesh_bytes)?;
+        // Leave out what the scene does not need (features.rs, kernels/features.h); a CPU's
+        // wide program (kernels/lanes.h) walks meshes through 8-wide BVHs.
+        let base_features = if options.all_features {
+            Features::all(scene, options.object_bvh)
+        } else {
+            Features::of(scene, options.object_bvh)
+        };
+        let lanes = base_features.wide_lanes(&device.description, options.lanes);
+        let packed = PackedScene::with_limits(
+            scene,
+            options.max_texture_pixels,
+            options.max_mesh_bytes,
+            lanes > 1,
+        )?;
         let filter = match options.texture_filter {
             TextureFilter::Bilinear => layout::FILTER_BILINEAR,
             TextureFilter::Nearest => layout::FILTER_NEAREST,
@@ -637,15 +649,10 @@ impl<'d> Renderer<'d> {
             {
                 continue;
             }
-            // Leave out what the scene does not need (features.rs, kernels/features.h).
-            let mut features = if options.all_features {
-                Features::all(scene, options.object_bvh)
-            } else {
-                Features::of(scene, options.object_bvh)
-            };
+            let mut features = base_features.clone();
             features.nee = light_sampling;
             features.regenerate = Features::regeneration_on(&device.description);
-            features.lanes = features.wide_lanes(&device.description, options.lanes);
+            features.lanes = lanes;
             let program = program::build_entry(
                 device,
                 sources,

@@ -198,11 +198,11 @@ pub fn probes_in_lanes(device: &Device, lanes: u32) -> ocl::Program {
     if lanes == 1 {
         return probes(device);
     }
+    // What the wide kernels are written for so far (render/features.rs `wide_lanes`): meshes
+    // there walk 8-wide BVHs (PackedScene::with_limits' `wide_bvh`).
     let mut defines: Vec<(&str, String)> = [
-        "CLPT_MESHES",
         "CLPT_REVSURFACES",
         "CLPT_BVH",
-        "CLPT_TRANSFORMS",
         "CLPT_TEXTURES",
         "CLPT_THIN_LENS",
     ]
