@@ -105,6 +105,19 @@ typedef struct Surface {
 } Surface;
 
 #if CLPT_MESHES
+/* The ray (o, d) in the space of mesh instance inst: its inverse transform applied, the
+ * direction not normalised (transform.h), so t is the same in both spaces. */
+inline void to_mesh_space(const Scene* sc, __global const MeshInstance* inst, LFloat3* o,
+                          LFloat3* d) {
+#if CLPT_TRANSFORMS
+    if (inst->transform != TRANSFORM_NONE) {
+        __global const float* inv = sc->transforms[inst->transform].inv;
+        *o = xform_point(inv, *o);
+        *d = xform_vector(inv, *d);
+    }
+#endif
+}
+
 #if CLPT_WIDE
 /* Each lane's ray against mesh instance `index`, the lanes whose nearest hit so far (hit->t)
  * is positive: those that enter the mesh's box walk its 8-wide BVH one after another
@@ -114,13 +127,7 @@ inline void mesh_object_intersect(const Scene* sc, uint index, LFloat3 o, LFloat
     __global const MeshInstance* inst = &sc->mesh_instances[index];
     __global const MeshDesc* m = &sc->meshes[inst->mesh];
     LFloat3 lo = o, ld = d;
-#if CLPT_TRANSFORMS
-    if (inst->transform != TRANSFORM_NONE) {
-        __global const float* inv = sc->transforms[inst->transform].inv;
-        lo = xform_point(inv, o);
-        ld = xform_vector(inv, d);
-    }
-#endif
+    to_mesh_space(sc, inst, &lo, &ld);
     lfloat t0 = 0.0f, t1 = hit->t;
     const lmask enters = hit->t > 0.0f &&
                          aabb_clip_lanes(vload3(0, m->lo), vload3(0, m->hi), lo,
@@ -148,13 +155,7 @@ inline void mesh_object_intersect(const Scene* sc, uint index, LFloat3 o, LFloat
 inline void mesh_object_intersect(const Scene* sc, uint index, float3 o, float3 d, Hit* hit) {
     __global const MeshInstance* inst = &sc->mesh_instances[index];
     float3 lo = o, ld = d;
-#if CLPT_TRANSFORMS
-    if (inst->transform != TRANSFORM_NONE) {
-        __global const float* inv = sc->transforms[inst->transform].inv;
-        lo = xform_point(inv, o);
-        ld = xform_vector(inv, d);
-    }
-#endif
+    to_mesh_space(sc, inst, &lo, &ld);
     if (kdtree_intersect(&sc->meshes[inst->mesh], sc->kd_nodes, sc->kd_indices, sc->triangles,
                          sc->vertices, lo, ld, &hit->t, &hit->prim, &hit->b1, &hit->b2)) {
         hit->kind = HIT_MESH;
