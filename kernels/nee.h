@@ -510,7 +510,8 @@ inline float3 light_emitted(const Scene* sc, __global const Light* l) {
 
 /* Light l's sample from the surface s of material `type` and `color` (shading normal ns), for
  * the path arriving from wo, in each lane (of `lanes`, wider than one): its MIS-weighted
- * contribution f cos Le w / pdf, or 0; *picked_pdf is its density where that is the same at every direction of l, else 0. */
+ * contribution f cos Le w / pdf, or 0; *picked_pdf is its density where that is the same at
+ * every direction of l, else 0. */
 inline LFloat3 light_contribution(const Scene* sc, __global const Light* l, Surface s, luint type,
                                   LFloat3 color, LFloat3 wo, LFloat3 ns, lfloat ux, lfloat uy,
                                   lmask lanes, lfloat* picked_pdf) {
@@ -544,8 +545,8 @@ inline LFloat3 light_contribution(const Scene* sc, __global const Light* l, Surf
 }
 
 /* One light sample from the surface s in each lane (of `lanes`, wider than one; the arguments
- * of light_contribution, u.x picking the light): its MIS-weighted contribution, or 0. Delta materials take none: their f
- * is 0 at every direction a light sample could choose. *picked is the entry it picked,
+ * of light_contribution, u.x picking the light): its MIS-weighted contribution, or 0. Delta
+ * materials take none: their f is 0 at every direction a light sample could choose. *picked is the entry it picked,
  * *picked_pdf that entry's density where it is the same at every direction, else 0
  * (emission_weight's, for the BSDF sample's hit). */
 inline LFloat3 sample_light(const Scene* sc, Surface s, luint type, LFloat3 color, LFloat3 wo,

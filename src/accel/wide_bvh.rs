@@ -157,6 +157,12 @@ fn split(items: &mut [Item], first: usize, depth: usize) -> Binary {
     }
 }
 
+/// The SAH bin of an item along `axis`: BINS equal parts of the centroids' extent.
+fn bin(item: &Item, centroids: &Aabb, axis: usize) -> usize {
+    let scale = BINS as f64 / centroids.extent()[axis];
+    (((item.centroid[axis] - centroids.lo[axis]) * scale) as usize).min(BINS - 1)
+}
+
 /// Partitions `items` at the cheapest binned SAH split over the three axes; the number in the
 /// first part, or `None` when the centroids do not spread (or no split beats the median's
 /// certainty of progress).
@@ -167,12 +173,10 @@ fn sah_partition(items: &mut [Item], centroids: &Aabb) -> Option<usize> {
         if extent[axis] <= 0.0 || !extent[axis].is_finite() {
             continue;
         }
-        let scale = BINS as f64 / extent[axis];
-        let bin_of = |c: f64| (((c - centroids.lo[axis]) * scale) as usize).min(BINS - 1);
         let mut counts = [0usize; BINS];
         let mut boxes = [Aabb::EMPTY; BINS];
         for it in items.iter() {
-            let b = bin_of(it.centroid[axis]);
+            let b = bin(it, centroids, axis);
             counts[b] += 1;
             boxes[b] = boxes[b].union(it.bounds);
         }
@@ -200,14 +204,10 @@ fn sah_partition(items: &mut [Item], centroids: &Aabb) -> Option<usize> {
         }
     }
     let (_, axis, k) = best?;
-    let scale = BINS as f64 / extent[axis];
-    let left_of = |it: &Item| {
-        ((((it.centroid[axis] - centroids.lo[axis]) * scale) as usize).min(BINS - 1)) < k
-    };
     // An in-place partition: the left part first.
     let mut mid = 0;
     for i in 0..items.len() {
-        if left_of(&items[i]) {
+        if bin(&items[i], centroids, axis) < k {
             items.swap(i, mid);
             mid += 1;
         }

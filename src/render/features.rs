@@ -139,8 +139,8 @@ impl Features {
     /// docs/cpu-lanes.md): on a CPU, `requested` (`--lanes`) or else the device's native float
     /// vector width (8 with AVX2, 16 with AVX-512), where the program has only what the wide
     /// kernels are written for so far: spheres, planes and meshes, transformed or not, without
-    /// the object BVH or texture maps. Elsewhere 1; a GPU's warp already runs 32 work-items in lock
-    /// step.
+    /// surfaces of revolution, the object BVH or texture maps. Elsewhere 1; a GPU's warp
+    /// already runs 32 work-items in lock step.
     pub fn wide_lanes(
         &self,
         device: &crate::device::DeviceDescription,

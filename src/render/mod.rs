@@ -5,9 +5,9 @@
 //! Each launch covers a band of rows and a run of sample indices, sized from the measured rate
 //! so that one launch takes about `launch_target` (by default 400 ms on a GPU, 1000 ms on one
 //! without a kernel watchdog, 100 ms on a CPU: [`default_launch_target`]): long enough to keep
-//! a GPU busy, short enough that a display GPU's watchdog (about 2 s) never fires. Every pass ends with all pixels at the same sample
-//! count, and the kernel adds samples one at a time onto the running sums, so the image does
-//! not depend on how the work was split.
+//! a GPU busy, short enough that a display GPU's watchdog (about 2 s) never fires. Every pass
+//! ends with all pixels at the same sample count, and the kernel adds samples one at a time
+//! onto the running sums, so the image does not depend on how the work was split.
 
 pub mod bench;
 pub mod clock;
