@@ -23,6 +23,21 @@ inline float3 mesh_vertex(__global const float* vertices, uint i) {
     return vload3(i, vertices);
 }
 
+/* Updates *t, *prim, *b1, *b2 where the ray meets triangle `tri` (vertices a, b, c) in
+ * (0, *t); whether it does. Both trees' leaves (this file's and wide_bvh.h's) test through it. */
+inline bool leaf_triangle(const WatertightRay* ray, float3 a, float3 b, float3 c, uint tri,
+                          float* t, uint* prim, float* b1, float* b2) {
+    float th, u1, u2;
+    if (!triangle_intersect(ray, a, b, c, *t, &th, &u1, &u2)) {
+        return false;
+    }
+    *t = th;
+    *prim = tri;
+    *b1 = u1;
+    *b2 = u2;
+    return true;
+}
+
 /* Updates *t, *prim, *b1, *b2 with the nearest hit in (0, *t) of the ray with the `count`
  * triangles of mesh m numbered in `list` (a leaf of its tree); whether there was one. */
 inline bool leaf_intersect(__global const MeshDesc* m, __global const uint* list, uint count,
@@ -32,15 +47,8 @@ inline bool leaf_intersect(__global const MeshDesc* m, __global const uint* list
     for (uint i = 0u; i < count; ++i) {
         const uint tri = list[i];
         const uint3 v = vload3(m->first_triangle + tri, triangles) + m->first_vertex;
-        float th, u1, u2;
-        if (triangle_intersect(ray, mesh_vertex(vertices, v.x), mesh_vertex(vertices, v.y),
-                               mesh_vertex(vertices, v.z), *t, &th, &u1, &u2)) {
-            *t = th;
-            *prim = tri;
-            *b1 = u1;
-            *b2 = u2;
-            found = true;
-        }
+        found |= leaf_triangle(ray, mesh_vertex(vertices, v.x), mesh_vertex(vertices, v.y),
+                               mesh_vertex(vertices, v.z), tri, t, prim, b1, b2);
     }
     return found;
 }

@@ -54,10 +54,14 @@ CLPT_ASSERT_SIZE(KdNode, 8);
 /* A node of a mesh's 8-wide BVH (src/accel/wide_bvh.rs, wide_bvh.h), for a CPU's wide
  * programs: the boxes of up to eight children as arrays per bound, so that one ray tests all
  * eight at once on float8. A child is another node's index (relative to the mesh's first node),
- * WIDE_BVH_LEAF | (count - 1) << 28 | first index (relative to the mesh's first index), or
+ * WIDE_BVH_LEAF | (count - 1) << 28 | first slot (relative to the mesh's first index), or
  * WIDE_BVH_EMPTY (its box empty). */
 #define WIDE_BVH_LEAF 0x80000000u
 #define WIDE_BVH_EMPTY 0xFFFFFFFFu
+/* The words of a leaf's triangle slot, which a wide BVH's first index counts in (in the
+ * kd_indices buffer): the triangle's three vertices' numbers in the scene's vertex array and its
+ * number in its mesh (src/device/upload.rs, wide_bvh.h). */
+#define WIDE_BVH_SLOT 4u
 typedef struct WideBvhNode {
     float lo_x[8];
     float hi_x[8];

@@ -16,7 +16,7 @@ use super::kdtree::{Tri, valid_triangles};
 use crate::device::layout::{WIDE_BVH_EMPTY, WIDE_BVH_LEAF, WideBvhNode};
 use glam::DVec3;
 
-/// Children a node holds (`WIDE_BVH_WIDTH` in types.h).
+/// Children a node holds (the eight of `WideBvhNode` in types.h).
 pub const WIDTH: usize = 8;
 /// The most triangles a leaf holds: on the dragon room (2 cores, PoCL, user CPU) 2 ran 2 to 5%
 /// faster than 4, as fast as 1 (within 1.4%), 8 about 10% slower.

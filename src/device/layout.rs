@@ -51,6 +51,9 @@ pub const BVH_EMPTY: u32 = u32::MAX;
 pub const WIDE_BVH_LEAF: u32 = 0x8000_0000;
 /// `WIDE_BVH_EMPTY` in `types.h`: an unused child slot.
 pub const WIDE_BVH_EMPTY: u32 = u32::MAX;
+/// `WIDE_BVH_SLOT` in `types.h`: the words of a wide BVH leaf's triangle slot (its three
+/// vertices' numbers in the scene's vertex array, its number in its mesh).
+pub const WIDE_BVH_SLOT: u32 = 4;
 
 /// `KdNode` in `types.h`.
 #[repr(C)]
@@ -366,6 +369,31 @@ macro_rules! layout {
     };
 }
 
+/// Every constant `types.h` and this file share, by its C name: the device layout probe checks
+/// each value on the device.
+pub const CONSTANTS: &[(&str, u32)] = &[
+    ("MATERIAL_DIFFUSE", MATERIAL_DIFFUSE),
+    ("MATERIAL_SPECULAR", MATERIAL_SPECULAR),
+    ("MATERIAL_REFRACTIVE", MATERIAL_REFRACTIVE),
+    ("MAP_NONE", MAP_NONE),
+    ("MAP_RGB8", MAP_RGB8),
+    ("MAP_TYPE8", MAP_TYPE8),
+    ("MAP_BUMP8", MAP_BUMP8),
+    ("FILTER_BILINEAR", FILTER_BILINEAR),
+    ("FILTER_NEAREST", FILTER_NEAREST),
+    ("KD_LEAF", KD_LEAF),
+    ("BVH_LEAF", BVH_LEAF),
+    ("BVH_EMPTY", BVH_EMPTY),
+    ("WIDE_BVH_LEAF", WIDE_BVH_LEAF),
+    ("WIDE_BVH_EMPTY", WIDE_BVH_EMPTY),
+    ("WIDE_BVH_SLOT", WIDE_BVH_SLOT),
+    ("TRANSFORM_NONE", TRANSFORM_NONE),
+    ("OBJECT_SPHERE", OBJECT_SPHERE),
+    ("OBJECT_PLANE", OBJECT_PLANE),
+    ("OBJECT_MESH", OBJECT_MESH),
+    ("OBJECT_REVSURFACE", OBJECT_REVSURFACE),
+];
+
 /// Every shared struct and field: the single list both the size asserts above and the device
 /// layout probe are checked against. The C field names are compiled by the probe, the Rust
 /// ones by `offset_of!`, so a renamed or reordered field fails on one side or the other.
@@ -449,11 +477,15 @@ pub fn probe_source() -> String {
             ));
         }
     }
+    for (name, _) in CONSTANTS {
+        src.push_str(&format!("    out[i++] = (uint)({name});\n"));
+    }
     src.push_str("}\n");
     src
 }
 
-/// Builds and runs the layout probe on `device` and compares every size and offset with Rust's.
+/// Builds and runs the layout probe on `device` and compares every size, offset and shared
+/// constant with Rust's.
 pub fn verify(
     device: &super::Device,
     sources: &super::program::KernelSources,
@@ -468,6 +500,11 @@ pub fn verify(
                     .map(move |(f, o)| (format!("offsetof({}, {f})", s.name), *o)),
             )
         })
+        .chain(
+            CONSTANTS
+                .iter()
+                .map(|(name, value)| (name.to_string(), *value as usize)),
+        )
         .collect();
     let source = sources.expand_text("layout_probe.cl", &probe_source())?;
     let built = super::program::build(device, source, super::program::build_options(&[]), None)?;

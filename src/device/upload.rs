@@ -476,7 +476,19 @@ impl PackedScene {
                         .into(),
                 })?;
             self.wide_nodes.extend(&tree.nodes);
-            self.kd_indices.extend(&tree.indices);
+            // Each leaf slot: the triangle's vertices, numbered in the scene's vertex array,
+            // and its number in the mesh (kernels/wide_bvh.h reads them at once).
+            const { assert!(layout::WIDE_BVH_SLOT == 4) };
+            let first_vertex = self.vertices.len();
+            for &number in &tree.indices {
+                let tri = mesh.triangles[number as usize];
+                for v in tri {
+                    let v = u32::try_from(first_vertex + v as usize)
+                        .map_err(|_| too_big("vertices"))?;
+                    self.kd_indices.push(v);
+                }
+                self.kd_indices.push(number);
+            }
             (tree.bounds, tree.nodes.len() * size_of::<WideBvhNode>())
         } else {
             let tree = KdTree::build(&mesh.positions, &mesh.triangles, &KdParams::default());
