@@ -22,6 +22,8 @@
  *   CLPT_LANES        the lanes a work-item carries (lanes.h): 1, or 4, 8 or 16 with CLPT_WIDE
  *   CLPT_WIDE         work-items of CLPT_LANES > 1 lanes (lanes.h); 0: plain scalars. Unlike
  *                     the others, it follows CLPT_LANES when absent (the probes of each width)
+ *   CLPT_WIDE_BVH     meshes walk 8-wide BVHs (wide_bvh.h); 0: kd-trees (kdtree.h). Follows
+ *                     CLPT_WIDE when absent; a wide program needs it
  */
 #ifndef CLPT_FEATURES_H
 #define CLPT_FEATURES_H
@@ -64,6 +66,9 @@
 #endif
 #ifndef CLPT_WIDE
 #define CLPT_WIDE (CLPT_LANES > 1)
+#endif
+#ifndef CLPT_WIDE_BVH
+#define CLPT_WIDE_BVH CLPT_WIDE
 #endif
 
 #endif

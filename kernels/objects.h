@@ -12,8 +12,8 @@
 /* What is compiled follows the program switches of features.h. Programs of several lanes a
  * work-item (lanes.h) have spheres, planes, meshes and transforms, without surfaces of
  * revolution and the object BVH so far (docs/cpu-lanes.md). */
-#if CLPT_WIDE && (CLPT_REVSURFACES || CLPT_BVH)
-#error "a wide program (CLPT_WIDE) has no surfaces of revolution or object BVH yet"
+#if CLPT_WIDE && (CLPT_REVSURFACES || CLPT_BVH || !CLPT_WIDE_BVH)
+#error "a wide program (CLPT_WIDE) has no surfaces of revolution or object BVH yet, and walks wide BVHs"
 #endif
 #if CLPT_TRANSFORMS
 #include "transform.h"
@@ -27,7 +27,7 @@
 #if CLPT_MESHES
 #include "triangle.h"
 #include "kdtree.h"
-#if CLPT_WIDE
+#if CLPT_WIDE_BVH
 #include "wide_bvh.h"
 #endif
 #endif
@@ -156,8 +156,14 @@ inline void mesh_object_intersect(const Scene* sc, uint index, float3 o, float3 
     __global const MeshInstance* inst = &sc->mesh_instances[index];
     float3 lo = o, ld = d;
     to_mesh_space(sc, inst, &lo, &ld);
+#if CLPT_WIDE_BVH
+    if (wide_bvh_intersect(&sc->meshes[inst->mesh], (__global const WideBvhNode*)sc->kd_nodes,
+                           sc->kd_indices, sc->triangles, sc->vertices, lo, ld, &hit->t,
+                           &hit->prim, &hit->b1, &hit->b2)) {
+#else
     if (kdtree_intersect(&sc->meshes[inst->mesh], sc->kd_nodes, sc->kd_indices, sc->triangles,
                          sc->vertices, lo, ld, &hit->t, &hit->prim, &hit->b1, &hit->b2)) {
+#endif
         hit->kind = HIT_MESH;
         hit->index = index;
     }

@@ -10,7 +10,8 @@ use clpt::render::film_file::FilmState;
 use clpt::render::metrics::{self, LinearImage};
 use clpt::render::resume::{self, BackgroundWriter, FilmRecord};
 use clpt::render::{
-    Flow, ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter, efficiency, film, report,
+    Flow, MeshTree, ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter, efficiency, film,
+    report,
     strategy::{LightSampling, Roulette},
 };
 use clpt::render::{merge, multi};
@@ -221,6 +222,11 @@ struct ProgramArgs {
     /// wide kernels are written for so far (docs/cpu-lanes.md)]. GPUs always take 1.
     #[arg(long, value_name = "N", value_parser = parse_lanes)]
     lanes: Option<u32>,
+    /// The tree meshes are walked through: kd (a SAH kd-tree) or wide (an 8-wide BVH)
+    /// [default: wide on a CPU, kd on a GPU]. A CPU's wide program (--lanes above 1) takes
+    /// only wide.
+    #[arg(long, value_name = "TREE")]
+    mesh_tree: Option<MeshTree>,
     /// Always build the program from source; neither read nor write the program cache.
     #[arg(long)]
     no_cache: bool,
@@ -404,6 +410,7 @@ fn options(
         launch_target,
         all_features: program.all_features,
         lanes: program.lanes,
+        mesh_tree: program.mesh_tree,
         cache_dir: program.cache_dir(),
         ..RenderOptions::default()
     })

@@ -39,14 +39,14 @@ fn pack(scene: &Scene) -> PackedScene {
     PackedScene::new(scene, u64::MAX).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// The device's hits of `rays` in `scene` by both mesh traversals: the scalar program's
-/// kd-trees, and the 8-wide BVHs of a CPU's wide program (accel/wide_bvh.rs, kernels/wide_bvh.h)
-/// in the program of 16 lanes a work-item.
-fn probe_both(
+/// The device's hits of `rays` in `scene` by every mesh traversal: kd-trees (a GPU's default),
+/// and 8-wide BVHs (accel/wide_bvh.rs, kernels/wide_bvh.h; a CPU's) in the program of 16 lanes
+/// a work-item and in the one-lane program.
+fn probe_every_tree(
     device: &clpt::device::Device,
     scene: &Scene,
     rays: &[[f32; 9]],
-) -> [(&'static str, Vec<[f32; 16]>); 2] {
+) -> [(&'static str, Vec<[f32; 16]>); 3] {
     let wide = PackedScene::with_limits(scene, u64::MAX, mesh::DEFAULT_MAX_FILE_BYTES, true)
         .unwrap_or_else(|e| panic!("{e}"));
     [
@@ -54,6 +54,10 @@ fn probe_both(
         (
             "wide BVH",
             common::probe_hits_in_lanes(device, &wide, rays, 16),
+        ),
+        (
+            "wide BVH, one lane",
+            common::probe_hits_wide_bvh(device, &wide, rays),
         ),
     ]
 }
@@ -248,7 +252,7 @@ fn rays_at_shared_edges_and_vertices_never_pass_through() {
             }
         }
         let mut passed_through = 0;
-        for (accel, got) in probe_both(&device, &scene, &rays) {
+        for (accel, got) in probe_every_tree(&device, &scene, &rays) {
             for (g, dist) in got.iter().zip(&dists) {
                 // Something of the mesh must be hit no later than the aimed-at point.
                 if g[1] != HIT_MESH || g[0] as f64 > dist * (1.0 + 1e-4) + 1e-5 {
@@ -299,7 +303,7 @@ fn kdtree_traversal_matches_brute_force_on_generated_meshes() {
                 ray(o, target - o)
             })
             .collect();
-        for (accel, got) in probe_both(&device, &scene, &rays) {
+        for (accel, got) in probe_every_tree(&device, &scene, &rays) {
             let what = format!("{name}, {accel}");
             let compared = check_against(
                 &loaded,
@@ -349,7 +353,7 @@ fn dragon_traversal_matches_host_tree_and_brute_force() {
                 (t, tri, u, v)
             })
     };
-    for (accel, got) in probe_both(&device, &scene, &rays) {
+    for (accel, got) in probe_every_tree(&device, &scene, &rays) {
         let what = format!("dragon ({accel}) vs host kd-tree");
         let compared = check_against(&mesh, &rays[..], &got, host, &what);
         assert!(compared > 30_000, "{what}: only {compared} hits compared");

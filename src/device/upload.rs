@@ -1,7 +1,7 @@
 //! Host scene → device data: packs the f64 scene into the f32 structs of `kernels/types.h`
 //! ([`PackedScene`], testable without a device): materials and their texture maps, spheres,
-//! planes, transforms, meshes (each OBJ file loaded and its kd-tree, or a CPU's wide BVH, built
-//! once, however many instances use it), the object table and the BVH over it; and uploads them
+//! planes, transforms, meshes (each OBJ file loaded and its kd-tree, or its 8-wide BVH on a
+//! CPU, built once, however many instances use it), the object table and the BVH over it; and uploads them
 //! ([`SceneBuffers`]).
 //!
 //! Precision. f32 spaces its values by 2^-24 of their size, so a scene stored as written
@@ -70,7 +70,7 @@ pub struct PackedScene {
     pub transforms: Vec<Transform>,
     pub meshes: Vec<MeshDesc>,
     pub mesh_instances: Vec<MeshInstance>,
-    /// Whether meshes carry 8-wide BVHs ([`WideBvh`], a CPU's wide program: kernels/lanes.h)
+    /// Whether meshes carry 8-wide BVHs ([`WideBvh`], on a CPU: kernels/wide_bvh.h)
     /// in `wide_nodes`, instead of kd-trees in `kd_nodes`; either way their leaves' triangle
     /// lists are in `kd_indices`, and the kernels' mesh-node buffer holds the one kind.
     pub wide_bvh: bool,
@@ -149,7 +149,7 @@ impl PackedScene {
 
     /// Packs `scene`, loading its texture maps (each image at most `max_texture_pixels`) and
     /// meshes (each OBJ file at most `max_mesh_bytes`), and building the BVH and each mesh's
-    /// kd-tree, or its 8-wide BVH with `wide_bvh` (for a CPU's wide program).
+    /// kd-tree, or its 8-wide BVH with `wide_bvh` (on a CPU).
     pub fn with_limits(
         scene: &Scene,
         max_texture_pixels: u64,
@@ -471,8 +471,8 @@ impl PackedScene {
             let tree =
                 WideBvh::build(&mesh.positions, &mesh.triangles).ok_or_else(|| Error::Mesh {
                     path: mesh.path.clone(),
-                    message: "more than 2^28 triangles: too many for a CPU's wide BVH (--lanes 1 \
-                              renders it with a kd-tree)"
+                    message: "more than 2^28 triangles: too many for an 8-wide BVH (--lanes 1 \
+                              --mesh-tree kd renders it with a kd-tree)"
                         .into(),
                 })?;
             self.wide_nodes.extend(&tree.nodes);

@@ -45,6 +45,10 @@ pub struct Features {
     /// renderer for NVIDIA GPUs, whose inline PTX the vote is ([`Features::regeneration_on`]);
     /// `of` leaves it off.
     pub regenerate: bool,
+    /// Meshes walk 8-wide BVHs (kernels/wide_bvh.h) instead of kd-trees: set by the renderer
+    /// (`--mesh-tree`, or the device's: [`crate::render::MeshTree::default_on`]); `of` leaves
+    /// it off.
+    pub wide_bvh: bool,
     /// Paths a work-item carries (kernels/lanes.h): above 1 on a CPU device where the program
     /// has only what the wide kernels are written for ([`Features::wide_lanes`]); `of` leaves
     /// it at 1.
@@ -104,6 +108,7 @@ impl Features {
                 .count(),
             nee: false,
             regenerate: false,
+            wide_bvh: false,
             lanes: 1,
         }
     }
@@ -177,6 +182,7 @@ impl Features {
             ("CLPT_NEE", flag(self.nee)),
             ("CLPT_REGENERATE", flag(self.regenerate)),
             ("CLPT_WIDE", flag(self.lanes > 1)),
+            ("CLPT_WIDE_BVH", flag(self.wide_bvh)),
             ("CLPT_LANES", self.lanes.to_string()),
         ]
     }
@@ -206,6 +212,7 @@ impl fmt::Display for Features {
             (self.glass, "glass"),
             (self.nee, "nee"),
             (self.regenerate, "regenerate"),
+            (self.wide_bvh && self.meshes, "wide-bvh"),
             (self.lanes > 1, lanes.as_str()),
         ];
         let on: Vec<&str> = names

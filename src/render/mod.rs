@@ -104,6 +104,41 @@ impl std::str::FromStr for ObjectBvh {
     }
 }
 
+/// The tree a mesh's triangles are walked through (kernels/kdtree.h or kernels/wide_bvh.h).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshTree {
+    /// A SAH kd-tree (src/accel/kdtree.rs).
+    Kd,
+    /// An 8-wide BVH (src/accel/wide_bvh.rs): what a CPU's wide program walks.
+    Wide,
+}
+
+impl MeshTree {
+    /// The tree a device walks by default: the 8-wide BVH on a CPU, whose scalar programs it
+    /// speeds as it does the wide ones (PoCL, 2 cores: case1 22 to 32% less user CPU, the
+    /// dragon room 29%); the kd-tree on a GPU, where the 8-wide BVH walked as written for the
+    /// CPU was 9 to 43% slower with light sampling (H100: case1, meshes, the dragon room) and
+    /// at best 8% faster without it (BENCHMARKS.md, "The 8-wide BVH everywhere on a CPU").
+    pub fn default_on(device: &DeviceDescription) -> MeshTree {
+        if device.is_gpu {
+            MeshTree::Kd
+        } else {
+            MeshTree::Wide
+        }
+    }
+}
+
+impl std::str::FromStr for MeshTree {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "kd" => Ok(MeshTree::Kd),
+            "wide" => Ok(MeshTree::Wide),
+            other => Err(format!("unknown mesh tree `{other}`: use kd or wide")),
+        }
+    }
+}
+
 /// With fewer objects than this, testing each in turn beats traversing the BVH: on an H200
 /// the loop rendered smallpt (9 objects) 1.7 times and case1 (13, three of them 100k-triangle
 /// meshes) 1.3 times faster, since most of their boxes (walls, planes) span the whole scene.
@@ -146,6 +181,9 @@ pub struct RenderOptions {
     /// Paths a work-item carries on a CPU device (`--lanes`); `None`: the device's native
     /// float width ([`Features::wide_lanes`]).
     pub lanes: Option<u32>,
+    /// The tree meshes are walked through; `None`: the device's ([`MeshTree::default_on`]). A
+    /// wide program takes only the 8-wide BVH.
+    pub mesh_tree: Option<MeshTree>,
     /// The program cache's folder ([`crate::device::cache`]); `None`: always build.
     pub cache_dir: Option<std::path::PathBuf>,
     /// A converged image of the same scene and size: the per-pass report then measures the
@@ -191,6 +229,7 @@ impl Default for RenderOptions {
             object_bvh: ObjectBvh::Auto,
             all_features: false,
             lanes: None,
+            mesh_tree: None,
             cache_dir: None,
             reference: None,
             target_error: None,
@@ -601,11 +640,21 @@ impl<'d> Renderer<'d> {
             Features::of(scene, options.object_bvh)
         };
         let lanes = base_features.wide_lanes(&device.description, options.lanes);
+        let wide_bvh = match options.mesh_tree {
+            Some(MeshTree::Kd) if lanes > 1 => {
+                return Err(Error::Invalid(format!(
+                    "a wide program ({lanes} lanes) walks meshes through 8-wide BVHs: \
+                     --mesh-tree kd takes --lanes 1"
+                )));
+            }
+            Some(tree) => tree == MeshTree::Wide,
+            None => MeshTree::default_on(&device.description) == MeshTree::Wide,
+        };
         let packed = PackedScene::with_limits(
             scene,
             options.max_texture_pixels,
             options.max_mesh_bytes,
-            lanes > 1,
+            wide_bvh,
         )?;
         let filter = match options.texture_filter {
             TextureFilter::Bilinear => layout::FILTER_BILINEAR,
@@ -653,6 +702,7 @@ impl<'d> Renderer<'d> {
             features.nee = light_sampling;
             features.regenerate = Features::regeneration_on(&device.description);
             features.lanes = lanes;
+            features.wide_bvh = wide_bvh;
             let program = program::build_entry(
                 device,
                 sources,

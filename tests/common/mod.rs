@@ -247,6 +247,20 @@ pub fn probe_scene_rays_in_lanes(
     width: usize,
     lanes: u32,
 ) -> Vec<f32> {
+    let program = probes_in_lanes(device, lanes);
+    probe_scene_rays_with(&program, device, scene, kernel_name, rays, width, lanes)
+}
+
+/// As [`probe_scene_rays_in_lanes`], on `program` (built for `lanes` lanes).
+pub fn probe_scene_rays_with(
+    program: &ocl::Program,
+    device: &Device,
+    scene: &PackedScene,
+    kernel_name: &str,
+    rays: &[[f32; 9]],
+    width: usize,
+    lanes: u32,
+) -> Vec<f32> {
     let params = scene.params(0, 1, 1, 0);
     let buffers = SceneBuffers::new(device, scene, &params).expect("upload");
     let origin = scene.origin.to_array();
@@ -262,10 +276,9 @@ pub fn probe_scene_rays_in_lanes(
         .collect();
     let input = buffer(device, &flat);
     let out = output::<f32>(device, rays.len() * width);
-    let program = probes_in_lanes(device, lanes);
     let mut builder = ocl::Kernel::builder();
     builder
-        .program(&program)
+        .program(program)
         .name(kernel_name)
         .queue(device.queue.clone());
     for b in buffers.in_order() {
@@ -295,8 +308,30 @@ pub fn probe_hits_in_lanes(
     rays: &[[f32; 9]],
     lanes: u32,
 ) -> Vec<[f32; 16]> {
+    let program = probes_in_lanes(device, lanes);
+    probe_hits_with(&program, device, scene, rays, lanes)
+}
+
+/// As [`probe_hits`], on the one-lane program whose meshes walk 8-wide BVHs (`CLPT_WIDE_BVH`,
+/// a CPU's default: render/mod.rs `MeshTree`); `scene` packed with them.
+pub fn probe_hits_wide_bvh(
+    device: &Device,
+    scene: &PackedScene,
+    rays: &[[f32; 9]],
+) -> Vec<[f32; 16]> {
+    let program = build_without_warnings(device, "probes.cl", &[("CLPT_WIDE_BVH", "1".into())]);
+    probe_hits_with(&program, device, scene, rays, 1)
+}
+
+fn probe_hits_with(
+    program: &ocl::Program,
+    device: &Device,
+    scene: &PackedScene,
+    rays: &[[f32; 9]],
+    lanes: u32,
+) -> Vec<[f32; 16]> {
     let origin = scene.origin.to_array();
-    probe_scene_rays_in_lanes(device, scene, "probe_hit", rays, 16, lanes)
+    probe_scene_rays_with(program, device, scene, "probe_hit", rays, 16, lanes)
         .chunks_exact(16)
         .map(|c| {
             let mut hit: [f32; 16] = c.try_into().expect("16 floats");
