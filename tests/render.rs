@@ -185,6 +185,18 @@ fn furnace_thin_lens_off_centre() {
     );
 }
 
+/// `scenes/meshes.txt` (three transformed meshes, one smooth, through a thin lens) at 40x24.
+fn small_meshes() -> Scene {
+    let mut meshes = Scene::load(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/meshes.txt"
+    )))
+    .unwrap_or_else(|e| panic!("{e}"));
+    meshes.camera.width = 40;
+    meshes.camera.height = 24;
+    meshes
+}
+
 fn smallpt_at(width: u32, height: u32) -> Scene {
     let mut scene = clpt::scene::builtin::scene().unwrap();
     scene.camera.width = width;
@@ -248,15 +260,9 @@ fn wide_programs_render_the_scalar_image() {
     let mut lens = smallpt_at(40, 30);
     lens.camera.flength = 100.0;
     lens.camera.aperture = 4.0;
-    // Three transformed meshes (one smooth) through a thin lens: each lane walks the kd-tree
+    // Three transformed meshes (one smooth) through a thin lens: each lane walks the 8-wide BVH
     // alone (kernels/objects.h).
-    let mut meshes = Scene::load(std::path::Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/scenes/meshes.txt"
-    )))
-    .unwrap_or_else(|e| panic!("{e}"));
-    meshes.camera.width = 40;
-    meshes.camera.height = 24;
+    let meshes = small_meshes();
     let gpu = common::device().description.is_gpu;
     let scenes = [
         ("smallpt", smallpt_at(40, 30)),
@@ -292,30 +298,8 @@ fn wide_programs_render_the_scalar_image() {
                 continue;
             }
             assert_eq!(stats.lanes, lanes, "{name}: not a wide program");
-            // The squared differences of the pixel means against the squared error either
-            // image has from its own noise (its variance of the mean): rounding's few flipped
-            // paths stay far below it.
-            let (mut diff, mut noise) = (0.0, 0.0);
-            for (x, y) in all_pixels(&scalar) {
-                let (a, b, v) = (
-                    scalar.mean(x, y),
-                    wide.mean(x, y),
-                    scalar.variance_of_mean(x, y),
-                );
-                for c in 0..3 {
-                    diff += (a[c] - b[c]).powi(2);
-                    noise += v[c];
-                }
-            }
-            eprintln!(
-                "{name}, {lanes} lanes: squared difference {:e} of the noise",
-                diff / noise
-            );
-            assert!(
-                diff <= 1e-3 * noise,
-                "{name}, {lanes} lanes: squared difference {:e} of the noise",
-                diff / noise
-            );
+            // Rounding's few flipped paths stay far below either image's noise.
+            assert_far_below_noise(&scalar, &wide, &format!("{name}, {lanes} lanes"));
             if lanes == 16 {
                 let (split, _) = at(lanes, Some(Duration::from_nanos(1)));
                 assert_eq!(
@@ -336,13 +320,7 @@ fn wide_programs_render_the_scalar_image() {
 fn both_mesh_trees_render_the_same_image() {
     use clpt::render::{MeshTree, Renderer};
     let device = common::device();
-    let mut meshes = Scene::load(std::path::Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/scenes/meshes.txt"
-    )))
-    .unwrap_or_else(|e| panic!("{e}"));
-    meshes.camera.width = 40;
-    meshes.camera.height = 24;
+    let meshes = small_meshes();
     for light_sampling in [LightSampling::Off, LightSampling::On] {
         let at = |tree: MeshTree| {
             let options = RenderOptions {
@@ -369,24 +347,28 @@ fn both_mesh_trees_render_the_same_image() {
                 .0
         };
         let (kd, wide) = (at(MeshTree::Kd), at(MeshTree::Wide));
-        let (mut diff, mut noise) = (0.0, 0.0);
-        for (x, y) in all_pixels(&kd) {
-            let (a, b, v) = (kd.mean(x, y), wide.mean(x, y), kd.variance_of_mean(x, y));
-            for c in 0..3 {
-                diff += (a[c] - b[c]).powi(2);
-                noise += v[c];
-            }
-        }
-        eprintln!(
-            "light sampling {light_sampling:?}: squared difference {:e} of the noise",
-            diff / noise
-        );
-        assert!(
-            diff <= 1e-3 * noise,
-            "light sampling {light_sampling:?}: squared difference {:e} of the noise",
-            diff / noise
-        );
+        assert_far_below_noise(&kd, &wide, &format!("light sampling {light_sampling:?}"));
     }
+}
+
+/// The squared differences of two images' pixel means are at most 1e-3 of the squared error
+/// the first has from its own noise (its variance of the mean, summed over pixels and
+/// channels): the images differ only where rounding or a tie flipped a path now and then.
+fn assert_far_below_noise(a: &Film, b: &Film, what: &str) {
+    let (mut diff, mut noise) = (0.0, 0.0);
+    for (x, y) in all_pixels(a) {
+        let (p, q, v) = (a.mean(x, y), b.mean(x, y), a.variance_of_mean(x, y));
+        for c in 0..3 {
+            diff += (p[c] - q[c]).powi(2);
+            noise += v[c];
+        }
+    }
+    eprintln!("{what}: squared difference {:e} of the noise", diff / noise);
+    assert!(
+        diff <= 1e-3 * noise,
+        "{what}: squared difference {:e} of the noise",
+        diff / noise
+    );
 }
 
 /// One pixel's f64 result: index, sum of samples, sum of squares.

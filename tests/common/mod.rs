@@ -185,7 +185,7 @@ pub fn probe_scene_rays(
     rays: &[[f32; 9]],
     width: usize,
 ) -> Vec<f32> {
-    probe_scene_rays_in_lanes(device, scene, kernel_name, rays, width, 1)
+    probe_scene_rays_with(&probes(device), device, scene, kernel_name, rays, width, 1)
 }
 
 /// The lane widths (kernels/lanes.h) whose programs the geometry tests run: the scalar
@@ -238,20 +238,8 @@ pub fn build_without_warnings(
     built.program
 }
 
-/// As [`probe_scene_rays`], on the program of `lanes` lanes (`rays.len()` a multiple of it).
-pub fn probe_scene_rays_in_lanes(
-    device: &Device,
-    scene: &PackedScene,
-    kernel_name: &str,
-    rays: &[[f32; 9]],
-    width: usize,
-    lanes: u32,
-) -> Vec<f32> {
-    let program = probes_in_lanes(device, lanes);
-    probe_scene_rays_with(&program, device, scene, kernel_name, rays, width, lanes)
-}
-
-/// As [`probe_scene_rays_in_lanes`], on `program` (built for `lanes` lanes).
+/// As [`probe_scene_rays`], on `program`, built for `lanes` lanes (`rays.len()` a multiple of
+/// it).
 pub fn probe_scene_rays_with(
     program: &ocl::Program,
     device: &Device,
