@@ -13,7 +13,7 @@
  * work-item (lanes.h) have spheres, planes, meshes and transforms, without surfaces of
  * revolution and the object BVH so far (docs/cpu-lanes.md). */
 #if CLPT_WIDE && (CLPT_REVSURFACES || CLPT_BVH || !CLPT_WIDE_BVH)
-#error "a wide program (CLPT_WIDE) has no surfaces of revolution or object BVH yet, and walks wide BVHs"
+#error "a wide program (CLPT_WIDE) walks wide BVHs, without revolved surfaces or the object BVH"
 #endif
 #if CLPT_TRANSFORMS
 #include "transform.h"
