@@ -246,6 +246,60 @@ fn a_cpu_render_without_bounds_says_it_stops_after_12_s() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// `--mesh-tree` takes kd or wide and refuses others before any work; a wide program refuses
+/// the kd-tree (it walks only 8-wide BVHs), and `-v` names the tree a mesh scene's program
+/// walks: wide on a CPU by default, kd on a GPU.
+#[test]
+fn mesh_trees_are_checked_and_reported() {
+    let dir = scratch("mesh-tree");
+    let image = dir.join("image.pfm");
+    let run = render(&image, &["--mesh-tree", "bvh"]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "--mesh-tree bvh was accepted");
+    assert!(err.contains("use kd or wide"), "{err}");
+    assert!(!image.exists(), "--mesh-tree bvh wrote an image");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/meshes.txt");
+    let out = image.to_str().unwrap();
+    let at = |extra: &[&str]| {
+        let args = [
+            &[
+                "render", scene, "--width", "8", "--height", "6", "--spp", "8", "-v", "-o", out,
+            ],
+            extra,
+        ]
+        .concat();
+        let run = clpt(&args);
+        (
+            run.status.success(),
+            String::from_utf8_lossy(&run.stderr).into_owned(),
+        )
+    };
+    let (ok, err) = at(&[]);
+    assert!(ok, "{err}");
+    let on_cpu = err.contains("(CPU");
+    assert_eq!(err.contains("wide-bvh"), on_cpu, "{err}");
+    let (ok, err) = at(&["--mesh-tree", "wide", "--lanes", "1"]);
+    assert!(
+        ok && err.contains("wide-bvh") && err.contains("-DCLPT_WIDE_BVH=1"),
+        "{err}"
+    );
+    let (ok, err) = at(&["--mesh-tree", "kd", "--lanes", "1"]);
+    assert!(
+        ok && !err.contains("wide-bvh") && err.contains("-DCLPT_WIDE_BVH=0"),
+        "{err}"
+    );
+    if on_cpu {
+        std::fs::remove_file(&image).unwrap();
+        let (ok, err) = at(&["--mesh-tree", "kd", "--lanes", "16"]);
+        assert!(
+            !ok && err.contains("--mesh-tree kd takes --lanes 1"),
+            "{err}"
+        );
+        assert!(!image.exists(), "a refused render wrote an image");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// `--lanes` takes the widths the kernels build (1, 4, 8, 16) and refuses others before any
 /// work, naming them; a CPU render at a given width says so under `-v`.
 #[test]
