@@ -546,9 +546,9 @@ inline LFloat3 light_contribution(const Scene* sc, __global const Light* l, Surf
 
 /* One light sample from the surface s in each lane (of `lanes`, wider than one; the arguments
  * of light_contribution, u.x picking the light): its MIS-weighted contribution, or 0. Delta
- * materials take none: their f is 0 at every direction a light sample could choose. *picked is the entry it picked,
- * *picked_pdf that entry's density where it is the same at every direction, else 0
- * (emission_weight's, for the BSDF sample's hit). */
+ * materials take none: their f is 0 at every direction a light sample could choose. *picked is
+ * the entry it picked, *picked_pdf that entry's density where it is the same at every
+ * direction, else 0 (emission_weight's, for the BSDF sample's hit). */
 inline LFloat3 sample_light(const Scene* sc, Surface s, luint type, LFloat3 color, LFloat3 wo,
                             LFloat3 ns, LFloat4 u, lmask lanes, luint* picked,
                             lfloat* picked_pdf) {

@@ -118,6 +118,20 @@ inline void to_mesh_space(const Scene* sc, __global const MeshInstance* inst, LF
 #endif
 }
 
+/* Updates hit t, prim, b1, b2 with the nearest hit in (0, *t) of o + t d, in mesh m's space,
+ * through its tree: the 8-wide BVH (wide_bvh.h) or the kd-tree (kdtree.h), as CLPT_WIDE_BVH
+ * says; whether there was one. */
+inline bool mesh_tree_intersect(const Scene* sc, __global const MeshDesc* m, float3 o, float3 d,
+                                float* t, uint* prim, float* b1, float* b2) {
+#if CLPT_WIDE_BVH
+    return wide_bvh_intersect(m, (__global const WideBvhNode*)sc->kd_nodes, sc->kd_indices,
+                              sc->vertices, o, d, t, prim, b1, b2);
+#else
+    return kdtree_intersect(m, sc->kd_nodes, sc->kd_indices, sc->triangles, sc->vertices, o, d,
+                            t, prim, b1, b2);
+#endif
+}
+
 #if CLPT_WIDE
 /* Each lane's ray against mesh instance `index`, the lanes whose nearest hit so far (hit->t)
  * is positive: those that enter the mesh's box walk its 8-wide BVH one after another
@@ -139,9 +153,8 @@ inline void mesh_object_intersect(const Scene* sc, uint index, LFloat3 o, LFloat
         }
         float t = lane_float(hit->t, lane), b1, b2;
         uint prim;
-        if (wide_bvh_intersect(m, (__global const WideBvhNode*)sc->kd_nodes, sc->kd_indices,
-                               sc->triangles, sc->vertices, lane_float3(lo, lane),
-                               lane_float3(ld, lane), &t, &prim, &b1, &b2)) {
+        if (mesh_tree_intersect(sc, m, lane_float3(lo, lane), lane_float3(ld, lane), &t, &prim,
+                                &b1, &b2)) {
             lane_set_float(&hit->t, lane, t);
             lane_set_uint(&hit->prim, lane, prim);
             lane_set_float(&hit->b1, lane, b1);
@@ -156,14 +169,8 @@ inline void mesh_object_intersect(const Scene* sc, uint index, float3 o, float3 
     __global const MeshInstance* inst = &sc->mesh_instances[index];
     float3 lo = o, ld = d;
     to_mesh_space(sc, inst, &lo, &ld);
-#if CLPT_WIDE_BVH
-    if (wide_bvh_intersect(&sc->meshes[inst->mesh], (__global const WideBvhNode*)sc->kd_nodes,
-                           sc->kd_indices, sc->triangles, sc->vertices, lo, ld, &hit->t,
-                           &hit->prim, &hit->b1, &hit->b2)) {
-#else
-    if (kdtree_intersect(&sc->meshes[inst->mesh], sc->kd_nodes, sc->kd_indices, sc->triangles,
-                         sc->vertices, lo, ld, &hit->t, &hit->prim, &hit->b1, &hit->b2)) {
-#endif
+    if (mesh_tree_intersect(sc, &sc->meshes[inst->mesh], lo, ld, &hit->t, &hit->prim, &hit->b1,
+                            &hit->b2)) {
         hit->kind = HIT_MESH;
         hit->index = index;
     }

@@ -51,8 +51,8 @@ typedef struct KdNode {
 } KdNode;
 CLPT_ASSERT_SIZE(KdNode, 8);
 
-/* A node of a mesh's 8-wide BVH (src/accel/wide_bvh.rs, wide_bvh.h), for a CPU's wide
- * programs: the boxes of up to eight children as arrays per bound, so that one ray tests all
+/* A node of a mesh's 8-wide BVH (src/accel/wide_bvh.rs, wide_bvh.h), a CPU's mesh tree: the
+ * boxes of up to eight children as arrays per bound, so that one ray tests all
  * eight at once on float8. A child is another node's index (relative to the mesh's first node),
  * WIDE_BVH_LEAF | (count - 1) << 28 | first slot (relative to the mesh's first index), or
  * WIDE_BVH_EMPTY (its box empty). */

@@ -1,14 +1,15 @@
-/* wide_bvh.h: nearest hit of a ray with a mesh through its 8-wide BVH, for a CPU's wide
- * programs (the job of kdtree.h there; src/accel/wide_bvh.rs builds the tree).
+/* wide_bvh.h: nearest hit of a ray with a mesh through its 8-wide BVH, on a CPU (the job of
+ * kdtree.h on a GPU; src/accel/wide_bvh.rs builds the tree, render/mod.rs `MeshTree` chooses).
  *
  * Reads: the mesh's WideBvhNode array (types.h), its leaves' triangle slots (in the kd_indices
  * buffer: each slot the triangle's three vertex numbers in the scene's vertex array and its
- * number in its mesh, src/device/upload.rs) and vertices. Writes: nothing. The ray is in the mesh's object space (direction not normalised).
- * Why: a wide program (lanes.h) walks a mesh one lane's ray at a time; where a kd-tree step
- * decides one split plane, a wide node's eight boxes are tested at once on float8 (Wald,
- * Benthin and Boulos, "Getting rid of packets", 2008; Embree's BVH8). The nearest child entered
- * is visited next, the others wait on a stack with their entry distance and are dropped once a
- * hit lies before it; leaves are tested as they are met.
+ * number in its mesh, src/device/upload.rs) and vertices. Writes: nothing. The ray is in the
+ * mesh's object space (direction not normalised).
+ * Why: a CPU walks a mesh one ray at a time, a wide program (lanes.h) one lane's after another;
+ * where a kd-tree step decides one split plane, a wide node's eight boxes are tested at once on
+ * float8 (Wald, Benthin and Boulos, "Getting rid of packets", 2008; Embree's BVH8). The nearest
+ * child entered is visited next, the others wait on a stack with their entry distance and are
+ * dropped once a hit lies before it; leaves are tested as they are met.
  */
 #ifndef CLPT_WIDE_BVH_H
 #define CLPT_WIDE_BVH_H
@@ -35,9 +36,8 @@ inline bool wide_leaf_intersect(__global const uint* slots, uint count,
 
 /* Updates *t, *prim, *b1, *b2 with the nearest hit in (0, *t) of o + t d with mesh `m`. */
 inline bool wide_bvh_intersect(__global const MeshDesc* m, __global const WideBvhNode* all_nodes,
-                               __global const uint* all_indices, __global const uint* triangles,
-                               __global const float* vertices, float3 o, float3 d, float* t,
-                               uint* prim, float* b1, float* b2) {
+                               __global const uint* all_indices, __global const float* vertices,
+                               float3 o, float3 d, float* t, uint* prim, float* b1, float* b2) {
     __global const WideBvhNode* nodes = all_nodes + m->first_node;
     __global const uint* indices = all_indices + m->first_index;
     const float3 inv_d = 1.0f / d;

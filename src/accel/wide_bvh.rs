@@ -1,15 +1,16 @@
-//! An 8-wide BVH over a mesh's triangles, for the CPU's wide programs (kernels/wide_bvh.h).
+//! An 8-wide BVH over a mesh's triangles, a CPU's mesh tree (kernels/wide_bvh.h; render/mod.rs
+//! `MeshTree`).
 //!
-//! A wide program (kernels/lanes.h) traces a mesh lane by lane, one ray at a time, where a
-//! kd-tree step decides one split plane per node: scalar work in a SIMD program. A node of
+//! A CPU traces a mesh one ray at a time (a wide program, kernels/lanes.h, lane by lane), where
+//! a kd-tree step decides one split plane per node: scalar work on SIMD hardware. A node of
 //! this tree holds the boxes of up to eight children as six float8 arrays, so one ray tests all
 //! eight with a few vector instructions (Wald et al., "Getting rid of packets", 2008; Embree's
 //! BVH8; Ylitie, Karras and Laine 2017 on wide BVHs). It is built as a binary BVH by binned SAH
 //! over triangle centroids (Wald, "On fast construction of SAH-based bounding volume
 //! hierarchies", 2007), then collapsed: each node takes in the children of its largest inner
 //! children until it has eight (pbrt-v4 and Embree collapse the same way). Leaves hold up to
-//! [`MAX_LEAF`] triangles. GPUs keep the kd-tree (kernels/kdtree.h): their warps already run
-//! one ray a lane.
+//! [`MAX_LEAF`] triangles. GPUs keep the kd-tree (kernels/kdtree.h): this traversal, with its
+//! deep stack, ran 9 to 43% slower there with light sampling (BENCHMARKS.md).
 
 use super::aabb::Aabb;
 use super::kdtree::{Tri, valid_triangles};
@@ -240,7 +241,8 @@ fn set_child(node: &mut WideBvhNode, k: usize, child: &Binary, reference: u32) {
     node.child[k] = reference;
 }
 
-/// The reference of a leaf: `WIDE_BVH_LEAF`, its count less one, its first index.
+/// The reference of a leaf: `WIDE_BVH_LEAF`, its count less one, its first index (in
+/// `indices`, and so its first slot on the device).
 fn leaf_ref(leaf: &Binary) -> u32 {
     let Binary::Leaf { first, count, .. } = leaf else {
         unreachable!("leaf_ref of an inner node")

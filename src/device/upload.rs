@@ -1,7 +1,8 @@
 //! Host scene → device data: packs the f64 scene into the f32 structs of `kernels/types.h`
 //! ([`PackedScene`], testable without a device): materials and their texture maps, spheres,
 //! planes, transforms, meshes (each OBJ file loaded and its kd-tree, or its 8-wide BVH on a
-//! CPU, built once, however many instances use it), the object table and the BVH over it; and uploads them
+//! CPU, built once, however many instances use it), the object table and the BVH over it; and
+//! uploads them
 //! ([`SceneBuffers`]).
 //!
 //! Precision. f32 spaces its values by 2^-24 of their size, so a scene stored as written
@@ -71,8 +72,9 @@ pub struct PackedScene {
     pub meshes: Vec<MeshDesc>,
     pub mesh_instances: Vec<MeshInstance>,
     /// Whether meshes carry 8-wide BVHs ([`WideBvh`], on a CPU: kernels/wide_bvh.h)
-    /// in `wide_nodes`, instead of kd-trees in `kd_nodes`; either way their leaves' triangle
-    /// lists are in `kd_indices`, and the kernels' mesh-node buffer holds the one kind.
+    /// in `wide_nodes`, instead of kd-trees in `kd_nodes`; either way their leaves' triangles
+    /// are in `kd_indices` (a kd-tree's as numbers, a wide BVH's as slots of
+    /// `WIDE_BVH_SLOT` words), and the kernels' mesh-node buffer holds the one kind.
     pub wide_bvh: bool,
     pub kd_nodes: Vec<KdNode>,
     pub wide_nodes: Vec<WideBvhNode>,

@@ -109,7 +109,7 @@ impl std::str::FromStr for ObjectBvh {
 pub enum MeshTree {
     /// A SAH kd-tree (src/accel/kdtree.rs).
     Kd,
-    /// An 8-wide BVH (src/accel/wide_bvh.rs): what a CPU's wide program walks.
+    /// An 8-wide BVH (src/accel/wide_bvh.rs): a CPU's, the only one its wide programs walk.
     Wide,
 }
 
@@ -632,8 +632,8 @@ impl<'d> Renderer<'d> {
             scene.camera.height,
             memory::host_available_bytes(),
         )?;
-        // Leave out what the scene does not need (features.rs, kernels/features.h); a CPU's
-        // wide program (kernels/lanes.h) walks meshes through 8-wide BVHs.
+        // Leave out what the scene does not need (features.rs, kernels/features.h); the mesh
+        // tree is packed for the program (MeshTree).
         let base_features = if options.all_features {
             Features::all(scene, options.object_bvh)
         } else {
