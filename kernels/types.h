@@ -250,7 +250,15 @@ typedef struct RenderParams {
     uint num_lights;       /* Light entries of the light list (next-event estimation) */
     float rr_threshold;    /* roulette's weight window: paths whose largest throughput
                             * component is below it play roulette (pathtracer.cl) */
+    uint walls[6];         /* the planes tested as walls where there is no object BVH
+                            * (objects.h, walls_intersect): at 2k the one whose normal is +axis
+                            * k, at 2k + 1 the one whose normal is -axis k, or WALL_NONE */
+    uint wall_mask;        /* bit i: plane i is one of walls[] (the host picks only planes
+                            * numbered below 32) */
 } RenderParams;
-CLPT_ASSERT_SIZE(RenderParams, 144);
+CLPT_ASSERT_SIZE(RenderParams, 172);
+
+/* An empty slot of RenderParams.walls. */
+#define WALL_NONE 0xFFFFFFFFu
 
 #endif

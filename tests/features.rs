@@ -508,3 +508,35 @@ fn tempdir(name: &str) -> std::path::PathBuf {
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
+
+/// A program tests walls (`CLPT_WALLS`, kernels/objects.h) where some axis has a wall on each
+/// side and there is no object BVH: the ceiling-lit room, not smallpt (its one wall plane) nor
+/// the room under the BVH. The switch leaves the code out where it is off.
+#[test]
+fn walls_go_where_an_axis_has_a_wall_on_each_side() {
+    let scene_of = |text: &str| clpt::scene::parse::parse_scene(text, "walls").unwrap();
+    let room = scene_of(include_str!("../scenes/ceiling_room.txt"));
+    let smallpt = clpt::scene::builtin::scene().unwrap();
+    let packed =
+        |s: &clpt::scene::Scene| clpt::device::upload::PackedScene::new(s, 1 << 20).unwrap();
+    let (room_planes, smallpt_planes) = (packed(&room).planes, packed(&smallpt).planes);
+    assert!(Features::of(&room, ObjectBvh::Off).walls_on(&room_planes));
+    assert!(
+        !Features::of(&room, ObjectBvh::On).walls_on(&room_planes),
+        "under the BVH"
+    );
+    assert!(!Features::of(&smallpt, ObjectBvh::Off).walls_on(&smallpt_planes));
+    let mut f = Features::of(&room, ObjectBvh::Off);
+    for walls in [false, true] {
+        f.walls = walls;
+        let text = KernelSources::Embedded
+            .expand("pathtracer.cl", &f.defines())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .text;
+        assert_eq!(
+            text.contains("walls_intersect("),
+            walls,
+            "CLPT_WALLS={walls}"
+        );
+    }
+}

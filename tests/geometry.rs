@@ -318,6 +318,125 @@ fn plane_hits_match_f64_and_spawned_rays_never_self_hit() {
     }
 }
 
+/// The walls (kernels/objects.h, `walls_intersect`): a room's six axis planes, each ray testing
+/// only the wall it moves towards on each axis, among planes the plane loop still tests (a
+/// second floor facing up, a tilted panel, a transformed-looking far wall left to the loop by
+/// being the second facing -z). Every ray's nearest plane and its t must be the f64
+/// reference's, in the one-lane program (walls in the object BVH) and the wide ones (walls
+/// apart): rays from inside and outside the room, along axes (a direction component exactly 0)
+/// and through its corners.
+#[test]
+fn walls_and_other_planes_give_the_nearest_plane() {
+    let device = common::device();
+    let mut rng = SmallRng::seed_from_u64(11);
+    let plane = |normal: [f32; 3], offset: f32, range: f32| Plane {
+        normal,
+        offset,
+        range,
+        ..Default::default()
+    };
+    let tilted = DVec3::new(0.2, 0.9, -0.38).normalize();
+    let planes = vec![
+        plane([0.0, -1.0, 0.0], -160.0, 400.0), // 0 ceiling, y = 160
+        plane([1.0, 0.0, 0.0], -100.0, 400.0),  // 1 x = -100
+        plane([-1.0, 0.0, 0.0], -100.0, 400.0), // 2 x = 100
+        plane([0.0, 1.0, 0.0], 0.0, 400.0),     // 3 floor, y = 0
+        plane([0.0, 0.0, 1.0], -100.0, 400.0),  // 4 back, z = -100
+        plane([0.0, 0.0, -1.0], -300.0, 400.0), // 5 front, z = 300
+        plane([0.0, 1.0, 0.0], 10.0, 30.0),     // 6 a raised floor panel facing up
+        plane(f32x3(tilted), 20.0, 40.0),       // 7 a tilted panel
+        plane([0.0, 0.0, -1.0], -250.0, 50.0),  // 8 a second wall facing -z
+    ];
+    let scene = common::packed(vec![], planes, vec![Default::default()]);
+    assert_eq!(
+        clpt::device::upload::walls(&scene.planes),
+        ([1, 2, 3, 0, 4, 5], 0b111111),
+        "the six room planes are the walls, the second ones of a side are not"
+    );
+    let inside = |rng: &mut SmallRng| {
+        DVec3::new(
+            rng.random_range(-99.0..99.0),
+            rng.random_range(1.0..159.0),
+            rng.random_range(-99.0..299.0),
+        )
+    };
+    let mut rays = Vec::new();
+    while rays.len() < 60_000 {
+        let o = if rays.len() % 4 == 3 {
+            // Outside the room: the walls are one-sided, and the range still counts.
+            inside(&mut rng) + common::random_unit(&mut rng) * 500.0
+        } else {
+            inside(&mut rng)
+        };
+        let mut d = match rays.len() % 5 {
+            // Towards a corner of the room.
+            0 => {
+                DVec3::new(
+                    if rng.random_bool(0.5) { -100.0 } else { 100.0 },
+                    if rng.random_bool(0.5) { 0.0 } else { 160.0 },
+                    if rng.random_bool(0.5) { -100.0 } else { 300.0 },
+                ) - o
+            }
+            _ => common::random_unit(&mut rng),
+        };
+        if rays.len() % 7 == 0 {
+            d[rays.len() / 7 % 3] = 0.0; // along a wall's plane
+        }
+        if d.length() > 0.0 {
+            rays.push(ray(o, d, common::random_unit(&mut rng)));
+        }
+    }
+    for lanes in common::LANE_WIDTHS {
+        let out = common::probe_hits_in_lanes(&device, &scene, &rays, lanes);
+        let mut checked = 0;
+        for (input, got) in rays.iter().zip(&out) {
+            let (o, d, _) = parts(input);
+            let mut hits: Vec<(f64, usize)> = scene
+                .planes
+                .iter()
+                .enumerate()
+                .filter_map(|(i, p)| reference::plane_hit(p, o, d, f64::INFINITY).map(|t| (t, i)))
+                .collect();
+            hits.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let tol = |t: f64| 64.0 * EPS * (o.abs().max_element() + 400.0 + t);
+            // Within rounding of a range's edge a plane may be met or not, and planes met at
+            // nearly the same t (a corner) may come in either order.
+            let edge = scene.planes.iter().any(|p| {
+                let n = v3(p.normal);
+                let denom = n.dot(d);
+                let t = (p.offset as f64 - n.dot(o)) / denom;
+                let rel = (o + t * d - v3(p.center)).abs().max_element();
+                t > 0.0 && denom < 0.0 && (rel - p.range as f64).abs() <= 1e-3
+            });
+            let tie = hits.len() > 1 && hits[1].0 - hits[0].0 <= tol(hits[1].0);
+            if edge || tie {
+                continue;
+            }
+            let want = hits.first().copied();
+            let got_hit = (got[1] == 2.0).then_some((got[0] as f64, got[2] as usize));
+            match (want, got_hit) {
+                (None, None) => {}
+                (Some((t64, i64)), Some((t32, i32))) => {
+                    assert_eq!(
+                        i32, i64,
+                        "{lanes} lanes: o={o} d={d}: plane {i32} for {i64}"
+                    );
+                    assert!(
+                        (t32 - t64).abs() <= tol(t64),
+                        "{lanes} lanes: o={o} d={d}: t {t32} vs {t64}"
+                    );
+                }
+                _ => panic!("{lanes} lanes: o={o} d={d}: f64 {want:?}, device {got_hit:?}"),
+            }
+            checked += 1;
+        }
+        assert!(
+            checked > 40_000,
+            "{lanes} lanes: only {checked} rays checked"
+        );
+    }
+}
+
 #[test]
 fn camera_rays_match_f64() {
     let device = common::device();

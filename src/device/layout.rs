@@ -331,7 +331,7 @@ impl Default for Plane {
 
 /// `RenderParams` in `types.h`.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct RenderParams {
     pub camera: Camera,
     pub num_spheres: u32,
@@ -349,8 +349,26 @@ pub struct RenderParams {
     pub num_lights: u32,
     /// Roulette's threshold: paths whose largest throughput component is below it play.
     pub rr_threshold: f32,
+    /// The planes tested as walls without an object BVH ([`walls`](super::upload)): at 2k the
+    /// one whose normal is +axis k, at 2k + 1 the one whose normal is -axis k, or [`WALL_NONE`].
+    pub walls: [u32; 6],
+    /// Bit i: plane i is one of `walls`.
+    pub wall_mask: u32,
 }
-const _: () = assert!(size_of::<RenderParams>() == 144);
+const _: () = assert!(size_of::<RenderParams>() == 172);
+
+/// `WALL_NONE` in `types.h`: an empty slot of `RenderParams::walls`.
+pub const WALL_NONE: u32 = u32::MAX;
+
+/// Zero, but with no walls: a zeroed slot would name plane 0.
+impl Default for RenderParams {
+    fn default() -> Self {
+        RenderParams {
+            walls: [WALL_NONE; 6],
+            ..bytemuck::Zeroable::zeroed()
+        }
+    }
+}
 
 /// One struct's layout as Rust sees it: its C name, size, and (field name, offset) pairs.
 pub struct StructLayout {
@@ -388,6 +406,7 @@ pub const CONSTANTS: &[(&str, u32)] = &[
     ("WIDE_BVH_EMPTY", WIDE_BVH_EMPTY),
     ("WIDE_BVH_SLOT", WIDE_BVH_SLOT),
     ("TRANSFORM_NONE", TRANSFORM_NONE),
+    ("WALL_NONE", WALL_NONE),
     ("OBJECT_SPHERE", OBJECT_SPHERE),
     ("OBJECT_PLANE", OBJECT_PLANE),
     ("OBJECT_MESH", OBJECT_MESH),
@@ -456,7 +475,7 @@ pub const LAYOUT: &[StructLayout] = &[
         num_bvh_nodes => "num_bvh_nodes",
         seed_lo => "seed_lo", seed_hi => "seed_hi", max_depth => "max_depth",
         rr_depth => "rr_depth", texture_filter => "texture_filter", num_lights => "num_lights",
-        rr_threshold => "rr_threshold",
+        rr_threshold => "rr_threshold", walls => "walls", wall_mask => "wall_mask",
     }),
 ];
 

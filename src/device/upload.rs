@@ -593,6 +593,7 @@ impl PackedScene {
         rr_depth: u32,
         texture_filter: u32,
     ) -> RenderParams {
+        let walls = walls(&self.planes);
         RenderParams {
             camera: self.camera.to_device(),
             num_spheres: self.spheres.len() as u32,
@@ -609,6 +610,8 @@ impl PackedScene {
             texture_filter,
             num_lights: self.lights.len() as u32,
             rr_threshold: 1.0,
+            walls: walls.0,
+            wall_mask: walls.1,
         }
     }
 
@@ -636,6 +639,37 @@ impl PackedScene {
 
 /// A read-only device buffer holding `items` as bytes (at least one element: OpenCL has no
 /// empty buffers).
+/// The planes that a program without an object BVH tests as walls (kernels/objects.h,
+/// `walls_intersect`), as `RenderParams::walls` and `wall_mask`. For each axis and sign, the
+/// first untransformed plane whose normal is exactly that signed axis, among planes 0 to 31
+/// (the mask's bits). A one-sided plane meets only rays moving against its normal, so a ray
+/// can meet only one of an axis's two walls. The kernel tests that one per lane, three tests
+/// where a room's six walls took six. Other planes, a second one facing the same way included,
+/// stay in the plane loop: any choice of walls finds the same hits.
+pub fn walls(planes: &[Plane]) -> ([u32; 6], u32) {
+    let mut slots = [layout::WALL_NONE; 6];
+    let mut mask = 0u32;
+    for (i, p) in planes.iter().enumerate().take(32) {
+        if p.transform != layout::TRANSFORM_NONE {
+            continue;
+        }
+        let axes: Vec<usize> = (0..3).filter(|&k| p.normal[k] != 0.0).collect();
+        let &[k] = axes.as_slice() else {
+            continue;
+        };
+        let slot = match p.normal[k] {
+            1.0 => 2 * k,
+            -1.0 => 2 * k + 1,
+            _ => continue,
+        };
+        if slots[slot] == layout::WALL_NONE {
+            slots[slot] = i as u32;
+            mask |= 1 << i;
+        }
+    }
+    (slots, mask)
+}
+
 pub fn upload_slice<T: bytemuck::Pod + Default>(
     device: &Device,
     items: &[T],

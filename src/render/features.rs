@@ -25,6 +25,10 @@ pub struct Features {
     pub rev_degree: usize,
     /// Objects tested through the object BVH rather than kind by kind.
     pub bvh: bool,
+    /// Without the BVH, axis planes tested as walls (kernels/objects.h, `walls_intersect`):
+    /// set by the renderer where the packed planes have a wall on both sides of some axis
+    /// ([`Features::walls_on`]); `of` leaves it off, `all` on.
+    pub walls: bool,
     /// Objects inside `Transform`.
     pub transforms: bool,
     /// Texture map kinds in use: colour, emission, type, bump.
@@ -106,6 +110,7 @@ impl Features {
                     })
                 })
                 .count(),
+            walls: false,
             nee: false,
             regenerate: false,
             wide_bvh: false,
@@ -129,8 +134,21 @@ impl Features {
             bump_maps: true,
             thin_lens: true,
             glass: true,
+            walls: true,
             ..Features::of(scene, object_bvh)
         }
+    }
+
+    /// Whether a program without the object BVH gains by testing walls (`walls`): where
+    /// `planes` (as packed: src/device/upload.rs, `walls`) hold a wall on each side of some
+    /// axis, of which a ray tests one. Lone walls (smallpt's front wall) test as in the loop.
+    pub fn walls_on(&self, planes: &[crate::device::layout::Plane]) -> bool {
+        let (slots, _) = crate::device::upload::walls(planes);
+        let none = crate::device::layout::WALL_NONE;
+        !self.bvh
+            && slots
+                .chunks_exact(2)
+                .any(|pair| pair[0] != none && pair[1] != none)
     }
 
     /// Whether a device runs the kernels' warp vote (kernels/pathtracer.cl): NVIDIA GPUs, whose
@@ -176,6 +194,7 @@ impl Features {
             ("CLPT_REVSURFACES", flag(self.revsurfaces)),
             ("CLPT_REV_DEGREE", self.rev_degree.to_string()),
             ("CLPT_BVH", flag(self.bvh)),
+            ("CLPT_WALLS", flag(self.walls)),
             ("CLPT_TRANSFORMS", flag(self.transforms)),
             ("CLPT_TEXTURES", flag(self.textures())),
             ("CLPT_THIN_LENS", flag(self.thin_lens)),
@@ -203,6 +222,7 @@ impl fmt::Display for Features {
             ),
             (self.revsurfaces && self.rev_degree > 0, rev_degree.as_str()),
             (self.bvh, "bvh"),
+            (self.walls && !self.bvh, "walls"),
             (self.transforms, "transforms"),
             (self.color_maps, "color-maps"),
             (self.emission_maps, "emission-maps"),

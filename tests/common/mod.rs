@@ -145,8 +145,19 @@ pub fn read<T: ocl::OclPrm>(buffer: &ocl::Buffer<T>) -> Vec<T> {
 
 /// Runs `kernel` over `n` work-items and waits.
 pub fn run(kernel: &ocl::Kernel, n: usize) {
+    // Work-groups of at most 64, as the renderer's: left to PoCL 3.1, a 16-lane probe of 3,750
+    // or 4,000 work-items crashed (SIGSEGV in the work-group function) where any group size
+    // from 1 to 250 given here ran.
+    let local = (1..=64).rev().find(|&l| n.is_multiple_of(l)).unwrap_or(1);
     // SAFETY: every probe writes only its own work-item's records, sized by the caller.
-    unsafe { kernel.cmd().global_work_size(n).enq() }.expect("probe launch");
+    unsafe {
+        kernel
+            .cmd()
+            .global_work_size(n)
+            .local_work_size(local)
+            .enq()
+    }
+    .expect("probe launch");
     kernel
         .default_queue()
         .expect("queue")
