@@ -232,7 +232,7 @@ inline void plane_object_intersect(const Scene* sc, uint index, LFloat3 o, LFloa
  * planes whose normal is an axis, one per axis and sign. A one-sided plane meets only rays
  * moving against its normal (plane.h), so of an axis's two walls a ray can meet only the one
  * it moves towards, and each lane tests that one: three tests where a room's six walls took
- * six (PoCL, 16 lanes: the dragon room 9 to 11% less user CPU; BENCHMARKS.md, "Walls"). Each
+ * six (PoCL, 16 lanes: the dragon room 8% less user CPU; BENCHMARKS.md, "Walls"). Each
  * test is plane_intersect's on the lane's wall: with the normal +-e_k, n.o and n.d are +-o_k
  * and +-d_k exactly, so t and the range test round as there, and the hits are the same bits.
  * Hits at equal t go to the walls, tested before the other planes. */

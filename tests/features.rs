@@ -25,6 +25,14 @@ const SWITCHED_CODE: [(&str, &str); 7] = [
     ("triangle_intersect(", "triangle"),
 ];
 
+/// The text of the render program with `f`'s switches, as the loader expands it.
+fn program_text(f: &Features) -> String {
+    KernelSources::Embedded
+        .expand("pathtracer.cl", &f.defines())
+        .unwrap_or_else(|e| panic!("{e}"))
+        .text
+}
+
 fn features(name: &str) -> Option<Features> {
     let dir = common::seed_dir("original_testcases_map_to_their_features")?;
     let scene = Scene::load(&dir.join("testcases").join(name)).unwrap_or_else(|e| panic!("{e}"));
@@ -118,13 +126,7 @@ fn a_sphere_only_program_carries_no_other_code() {
     let scene = clpt::scene::builtin::scene().unwrap();
     let specialised = Features::of(&scene, ObjectBvh::Auto);
     let all = Features::all(&scene, ObjectBvh::On);
-    let source = |f: &Features| {
-        KernelSources::Embedded
-            .expand("pathtracer.cl", &f.defines())
-            .unwrap_or_else(|e| panic!("{e}"))
-            .text
-    };
-    let (small, full) = (source(&specialised), source(&all));
+    let (small, full) = (program_text(&specialised), program_text(&all));
     for (code, what) in SWITCHED_CODE {
         assert!(
             full.contains(code),
@@ -237,10 +239,7 @@ fn only_nvidia_gpus_get_the_warp_vote() {
     );
     for regenerate in [false, true] {
         features.regenerate = regenerate;
-        let text = KernelSources::Embedded
-            .expand("pathtracer.cl", &features.defines())
-            .unwrap_or_else(|e| panic!("{e}"))
-            .text;
+        let text = program_text(&features);
         assert_eq!(text.contains("vote.sync.ballot"), regenerate);
         assert_eq!(text.contains("warp_vote_half("), regenerate);
     }
@@ -286,10 +285,7 @@ fn cpus_get_lanes_where_the_program_allows() {
     for lanes in [1, 16] {
         let mut f = plain.clone();
         f.lanes = lanes;
-        let text = KernelSources::Embedded
-            .expand("pathtracer.cl", &f.defines())
-            .unwrap_or_else(|e| panic!("{e}"))
-            .text;
+        let text = program_text(&f);
         assert_eq!(
             text.contains("typedef struct LFloat3"),
             lanes > 1,
@@ -510,8 +506,8 @@ fn tempdir(name: &str) -> std::path::PathBuf {
 }
 
 /// A program tests walls (`CLPT_WALLS`, kernels/objects.h) where some axis has a wall on each
-/// side and there is no object BVH: the ceiling-lit room, not smallpt (its one wall plane) nor
-/// the room under the BVH. The switch leaves the code out where it is off.
+/// side and there is no object BVH, on a CPU: the ceiling-lit room, not smallpt (its one wall
+/// plane), the room under the BVH nor on a GPU. The switch leaves the code out where it is off.
 #[test]
 fn walls_go_where_an_axis_has_a_wall_on_each_side() {
     let scene_of = |text: &str| clpt::scene::parse::parse_scene(text, "walls").unwrap();
@@ -520,19 +516,22 @@ fn walls_go_where_an_axis_has_a_wall_on_each_side() {
     let packed =
         |s: &clpt::scene::Scene| clpt::device::upload::PackedScene::new(s, 1 << 20).unwrap();
     let (room_planes, smallpt_planes) = (packed(&room).planes, packed(&smallpt).planes);
-    assert!(Features::of(&room, ObjectBvh::Off).walls_on(&room_planes));
+    let cpu = device("PoCL", false, 16);
+    assert!(Features::of(&room, ObjectBvh::Off).walls_on(&room_planes, &cpu));
     assert!(
-        !Features::of(&room, ObjectBvh::On).walls_on(&room_planes),
+        !Features::of(&room, ObjectBvh::On).walls_on(&room_planes, &cpu),
         "under the BVH"
     );
-    assert!(!Features::of(&smallpt, ObjectBvh::Off).walls_on(&smallpt_planes));
+    assert!(!Features::of(&smallpt, ObjectBvh::Off).walls_on(&smallpt_planes, &cpu));
+    let gpu = device("NVIDIA CUDA", true, 1);
+    assert!(
+        !Features::of(&room, ObjectBvh::Off).walls_on(&room_planes, &gpu),
+        "a GPU, where walls were not measured"
+    );
     let mut f = Features::of(&room, ObjectBvh::Off);
     for walls in [false, true] {
         f.walls = walls;
-        let text = KernelSources::Embedded
-            .expand("pathtracer.cl", &f.defines())
-            .unwrap_or_else(|e| panic!("{e}"))
-            .text;
+        let text = program_text(&f);
         assert_eq!(
             text.contains("walls_intersect("),
             walls,
