@@ -515,17 +515,18 @@ fn walls_go_where_an_axis_has_a_wall_on_each_side() {
     let smallpt = clpt::scene::builtin::scene().unwrap();
     let packed =
         |s: &clpt::scene::Scene| clpt::device::upload::PackedScene::new(s, 1 << 20).unwrap();
-    let (room_planes, smallpt_planes) = (packed(&room).planes, packed(&smallpt).planes);
+    let slots = |s: &Scene| clpt::device::upload::walls(&packed(s).planes).0;
+    let (room_slots, smallpt_slots) = (slots(&room), slots(&smallpt));
     let cpu = device("PoCL", false, 16);
-    assert!(Features::of(&room, ObjectBvh::Off).walls_on(&room_planes, &cpu));
+    assert!(Features::of(&room, ObjectBvh::Off).walls_on(&room_slots, &cpu));
     assert!(
-        !Features::of(&room, ObjectBvh::On).walls_on(&room_planes, &cpu),
+        !Features::of(&room, ObjectBvh::On).walls_on(&room_slots, &cpu),
         "under the BVH"
     );
-    assert!(!Features::of(&smallpt, ObjectBvh::Off).walls_on(&smallpt_planes, &cpu));
+    assert!(!Features::of(&smallpt, ObjectBvh::Off).walls_on(&smallpt_slots, &cpu));
     let gpu = device("NVIDIA CUDA", true, 1);
     assert!(
-        !Features::of(&room, ObjectBvh::Off).walls_on(&room_planes, &gpu),
+        !Features::of(&room, ObjectBvh::Off).walls_on(&room_slots, &gpu),
         "a GPU, where walls were not measured"
     );
     let mut f = Features::of(&room, ObjectBvh::Off);

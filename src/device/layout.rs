@@ -313,6 +313,18 @@ pub struct Plane {
 }
 const _: () = assert!(size_of::<Plane>() == 76);
 
+impl Plane {
+    /// The axis its normal lies along, where exactly one of the normal's components is not 0:
+    /// the walls of a closed room (device/lights.rs) and of `walls_intersect` (upload.rs).
+    pub fn axis(&self) -> Option<usize> {
+        let mut axes = (0..3).filter(|&k| self.normal[k] != 0.0);
+        match (axes.next(), axes.next()) {
+            (Some(k), None) => Some(k),
+            _ => None,
+        }
+    }
+}
+
 impl Default for Plane {
     fn default() -> Self {
         Plane {

@@ -404,8 +404,7 @@ pub fn closed_room(scene: &LightSources) -> Option<Room> {
         let Some(m) = scene.materials.get(p.material as usize) else {
             continue;
         };
-        let axes: Vec<usize> = (0..3).filter(|&k| p.normal[k] != 0.0).collect();
-        let &[k] = axes.as_slice() else {
+        let Some(k) = p.axis() else {
             continue;
         };
         let nk = f64::from(p.normal[k]);

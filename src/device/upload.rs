@@ -637,8 +637,6 @@ impl PackedScene {
     }
 }
 
-/// A read-only device buffer holding `items` as bytes (at least one element: OpenCL has no
-/// empty buffers).
 /// The planes that a program without an object BVH tests as walls (kernels/objects.h,
 /// `walls_intersect`), as `RenderParams::walls` and `wall_mask`. For each axis and sign, the
 /// first untransformed plane whose normal is exactly that signed axis, among planes 0 to 31
@@ -653,8 +651,7 @@ pub fn walls(planes: &[Plane]) -> ([u32; 6], u32) {
         if p.transform != layout::TRANSFORM_NONE {
             continue;
         }
-        let axes: Vec<usize> = (0..3).filter(|&k| p.normal[k] != 0.0).collect();
-        let &[k] = axes.as_slice() else {
+        let Some(k) = p.axis() else {
             continue;
         };
         let slot = match p.normal[k] {
@@ -670,6 +667,8 @@ pub fn walls(planes: &[Plane]) -> ([u32; 6], u32) {
     (slots, mask)
 }
 
+/// A read-only device buffer holding `items` as bytes (at least one element: OpenCL has no
+/// empty buffers).
 pub fn upload_slice<T: bytemuck::Pod + Default>(
     device: &Device,
     items: &[T],

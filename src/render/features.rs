@@ -140,17 +140,12 @@ impl Features {
     }
 
     /// Whether a program without the object BVH gains by testing walls (`walls`) on `device`:
-    /// where `planes` (as packed: src/device/upload.rs, `walls`) hold a wall on each side of
-    /// some axis, of which a ray tests one, on a CPU. Lone walls (smallpt's front wall) test
-    /// as in the loop. GPUs keep the loop until walls are measured there: a warp's rays face
-    /// both walls of an axis as a CPU's lanes do, but no GPU was at hand (BENCHMARKS.md,
-    /// "Walls").
-    pub fn walls_on(
-        &self,
-        planes: &[crate::device::layout::Plane],
-        device: &crate::device::DeviceDescription,
-    ) -> bool {
-        let (slots, _) = crate::device::upload::walls(planes);
+    /// where the wall slots (`RenderParams::walls`: src/device/upload.rs, `walls`) hold a
+    /// wall on each side of some axis, of which a ray tests one, on a CPU. Lone walls
+    /// (smallpt's front wall) test as in the loop. GPUs keep the loop until walls are measured
+    /// there: a warp's rays face both walls of an axis as a CPU's lanes do, but no GPU was at
+    /// hand (BENCHMARKS.md, "Walls").
+    pub fn walls_on(&self, slots: &[u32; 6], device: &crate::device::DeviceDescription) -> bool {
         let none = crate::device::layout::WALL_NONE;
         !self.bvh
             && !device.is_gpu
