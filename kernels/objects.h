@@ -41,44 +41,19 @@
 #define HIT_MESH 3u
 #define HIT_REVSURFACE 4u
 
-/* Every scene buffer, in the order kernels take them (SceneBuffers::in_order on the host). */
+/* Every scene buffer, in the order kernels take them: built from types.h's SCENE_BUFFERS, the
+ * host's one list (src/contract/buffers.rs), which binds each by its name. */
+#define SCENE_FIELD(T, name) __global const T* name;
 typedef struct Scene {
-    __global const RenderParams* params;
-    __global const Material* materials;
-    __global const Sphere* spheres;
-    __global const Plane* planes;
-    __global const TextureMap* maps;
-    __global const uchar* texels;
-    __global const Transform* transforms;
-    __global const MeshDesc* meshes;
-    __global const MeshInstance* mesh_instances;
-    __global const KdNode* kd_nodes;
-    __global const uint* kd_indices;
-    __global const uint* triangles;
-    __global const float* vertices;
-    __global const float* normals;
-    __global const ObjectRef* objects;
-    __global const BvhNode* bvh;
-    __global const RevSurface* revsurfaces;
-    __global const float2* rev_points;
-    __global const Light* lights;
+    SCENE_BUFFERS(SCENE_FIELD)
 } Scene;
 
-#define SCENE_KERNEL_ARGS                                                                     \
-    __global const RenderParams *params, __global const Material *materials,                 \
-        __global const Sphere *spheres, __global const Plane *planes,                        \
-        __global const TextureMap *maps, __global const uchar *texels,                       \
-        __global const Transform *transforms, __global const MeshDesc *meshes,               \
-        __global const MeshInstance *mesh_instances, __global const KdNode *kd_nodes,        \
-        __global const uint *kd_indices, __global const uint *triangles,                     \
-        __global const float *vertices, __global const float *normals,                       \
-        __global const ObjectRef *objects, __global const BvhNode *bvh,                      \
-        __global const RevSurface *revsurfaces, __global const float2 *rev_points,            \
-        __global const Light *lights
-#define SCENE_FROM_KERNEL_ARGS                                                                \
-    {params,   materials,  spheres,   planes,   maps,     texels,  transforms, meshes,        \
-     mesh_instances, kd_nodes, kd_indices, triangles, vertices, normals, objects, bvh,         \
-     revsurfaces, rev_points, lights}
+/* The scene's kernel parameters, each with its comma: a kernel writes
+ * `k(SCENE_KERNEL_ARGS __global float* out)`. */
+#define SCENE_PARAM(T, name) __global const T *name,
+#define SCENE_KERNEL_ARGS SCENE_BUFFERS(SCENE_PARAM)
+#define SCENE_NAME(T, name) name,
+#define SCENE_FROM_KERNEL_ARGS {SCENE_BUFFERS(SCENE_NAME)}
 
 /* A hit of each lane (lanes.h). */
 typedef struct Hit {

@@ -58,14 +58,14 @@ inline SurfaceMaterial material_at(const Scene* sc, Hit hit, Surface s) {
         __global const Material* m = &sc->materials[index];
         sm.emission = v3_select(sm.emission, v3_splat(vload3(0, m->emission)), same);
         sm.color = v3_select(sm.color, v3_splat(vload3(0, m->color)), same);
-        sm.type = select(sm.type, (luint)(m->type), same);
+        sm.type = select(sm.type, (luint)(m->kind), same);
         pending = pending && !same;
     }
 #else
     __global const Material* m = &sc->materials[s.material];
     sm.emission = vload3(0, m->emission);
     sm.color = vload3(0, m->color);
-    sm.type = m->type;
+    sm.type = m->kind;
 #endif
 #if CLPT_TEXTURES
     if ((m->color_map & m->emission_map & m->type_map & m->bump_map) == MAP_NONE) {
@@ -349,7 +349,7 @@ inline bool warp_vote_half(bool p) {
  * mean without bias. A sample that is not finite (an overflow, a NaN from a scene or a kernel fault) is
  * never added: it counts as 0, and the pixel's `bad` count and first bad sample index record it,
  * so the host can warn and name it. */
-__kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum, __global float4* sum_lo,
+__kernel void render_pass(SCENE_KERNEL_ARGS __global float4* sum, __global float4* sum_lo,
                           __global float4* sum_sq, __global float4* sum_odd,
                           __global float4* sum_odd_lo, __global uint* bad,
                           __global uint* bad_first, uint sample_start,
@@ -462,15 +462,14 @@ __kernel void render_pass(SCENE_KERNEL_ARGS, __global float4* sum, __global floa
 }
 
 /* Error sums of one image row after `spp` samples, for the per-pass report (render/mod.rs).
- * Reads: the film sums, and with has_reference the reference image (linear rgb). Writes: five
- * sums over the row's pixels and channels: the estimated squared error of the mean (the
- * difference of the even and odd halves squared, times n_even n_odd / n^2: its expectation is
- * the variance of the mean; spp >= 5, so that both halves have samples), the same over (mean^2 + eps), and with a reference the squared error, the squared
- * error over (ref^2 + eps), and the absolute error. */
+ * Reads: the film sums, and with has_reference the reference image (linear rgb). Writes: the
+ * row's ErrorRow (types.h): the estimated squared error of the mean and its relative form
+ * (spp >= 5, so that both halves have samples), and with a reference the squared, relative
+ * squared and absolute errors. */
 __kernel void error_rows(__global const float4* sum, __global const float4* sum_lo,
                          __global const float4* sum_odd, __global const float4* sum_odd_lo,
                          __global const float4* reference, uint has_reference, uint width,
-                         uint spp, float eps, __global float* out) {
+                         uint spp, float eps, __global ErrorRow* out) {
     const uint row = get_global_id(0);
     const float n = (float)spp;
     const uint rest = spp % 8u;
@@ -499,10 +498,10 @@ __kernel void error_rows(__global const float4* sum, __global const float4* sum_
             ae += a.x + a.y + a.z;
         }
     }
-    __global float* o = out + 5u * row;
-    o[0] = est;
-    o[1] = est_rel;
-    o[2] = se;
-    o[3] = se_rel;
-    o[4] = ae;
+    __global ErrorRow* o = out + row;
+    o->estimate = est;
+    o->estimate_rel = est_rel;
+    o->squared = se;
+    o->squared_rel = se_rel;
+    o->absolute = ae;
 }

@@ -52,7 +52,7 @@ inline Hit probe_first_hit(const Scene* sc, __global const float* rays, uint fir
  * (o, d, w); output 16 floats: t, kind, index, p[3], n[3], p_error[3], then for the spawned
  * ray t2, kind2, index2, and the spawn origin's distance from p along n (signed). A work-item
  * takes CLPT_LANES rays (lanes.h): the geometry tests run the wide programs too. */
-__kernel void probe_hit(SCENE_KERNEL_ARGS, __global const float* rays, __global float* out) {
+__kernel void probe_hit(SCENE_KERNEL_ARGS __global const float* rays, __global float* out) {
     const Scene scene = SCENE_FROM_KERNEL_ARGS;
     const uint first = get_global_id(0) * CLPT_LANES;
     LFloat3 o, d, w;
@@ -213,7 +213,7 @@ __kernel void probe_camera(__global const RenderParams* params, __global const u
  * dot(d, n) at the first hit, the spawned ray's hit kind, dot(w, n2) at its hit (n, n2 the
  * geometric normals), and its t. A closed mesh seen from outside gives dot(w, n2) of the sign
  * of dot(d, n) always: the other sign is a ray that got inside. */
-__kernel void probe_spawn(SCENE_KERNEL_ARGS, __global const float* rays, __global float* out) {
+__kernel void probe_spawn(SCENE_KERNEL_ARGS __global const float* rays, __global float* out) {
     const Scene scene = SCENE_FROM_KERNEL_ARGS;
     const uint i = get_global_id(0);
     float3 o, d, wl;
@@ -243,7 +243,7 @@ __kernel void probe_spawn(SCENE_KERNEL_ARGS, __global const float* rays, __globa
 
 /* Texture coordinates and directions of a hit: input as probe_hit (9 floats, w unused); output
  * 8 floats: u, v, dpdu[3], dpdv[3] (zeros on a miss). */
-__kernel void probe_mapping(SCENE_KERNEL_ARGS, __global const float* rays,
+__kernel void probe_mapping(SCENE_KERNEL_ARGS __global const float* rays,
                             __global float* out) {
     const Scene scene = SCENE_FROM_KERNEL_ARGS;
     const uint i = get_global_id(0);

@@ -1,10 +1,12 @@
-/* types.h: every struct shared between host and device, declared once.
+/* types.h: every struct, constant and buffer shared between host and device.
  *
- * Reads: nothing. Writes: nothing. Why: the Rust mirrors in src/device/layout.rs copy these
- * declarations field for field (#[repr(C)] + bytemuck); both sides assert the sizes, and the
- * layout probe (tests/layout.rs) compiles offsetof() for every field on the device and compares
- * it with Rust's offset_of!. Rules: only 4-byte scalars and arrays of them (no float3: it is
- * 16 bytes with 16-byte alignment), so no implicit padding can differ between compilers.
+ * WRITTEN BY THE HOST from src/contract/types.rs and buffers.rs, its one definition: edit those
+ * and run `CLPT_WRITE_TYPES_H=1 cargo test --release --test layout` (the test fails while this
+ * file differs). Reads: nothing. Writes: nothing. Why: both sides must agree to the byte; the
+ * layout probe (tests/layout.rs) also compiles offsetof() for every field and every constant on
+ * the device and compares them with Rust's. Rules: only 4-byte scalars and arrays of them (no
+ * float3: it is 16 bytes with 16-byte alignment), so no implicit padding can differ between
+ * compilers.
  */
 #ifndef CLPT_TYPES_H
 #define CLPT_TYPES_H
@@ -19,11 +21,12 @@
 #define MATERIAL_SPECULAR 1u
 #define MATERIAL_REFRACTIVE 2u
 
-/* Texture map formats (texture.h): each map in the smallest format that holds it. */
+/* Texture map formats (texture.h), each map in the smallest format that holds it. No map: a
+ * material without this map. */
 #define MAP_NONE 0xFFFFFFFFu
-#define MAP_RGB8 0u  /* 3 bytes per texel: colour or emission, value / 255 */
-#define MAP_TYPE8 1u /* 1 byte per texel: a MATERIAL_* value */
-#define MAP_BUMP8 2u /* 2 signed bytes per texel: bump gradients (du, dv) * 127 */
+#define MAP_RGB8 0u    /* 3 bytes per texel: colour or emission, value / 255 */
+#define MAP_TYPE8 1u   /* 1 byte per texel: a MATERIAL_* value */
+#define MAP_BUMP8 2u   /* 2 signed bytes per texel: bump gradients (du, dv) * 127 */
 
 /* Texture lookup filters (RenderParams.texture_filter). */
 #define FILTER_BILINEAR 0u
@@ -38,30 +41,37 @@ typedef struct TextureMap {
 } TextureMap;
 CLPT_ASSERT_SIZE(TextureMap, 16);
 
-/* A kd-tree node over a mesh's triangles (kdtree.h), 8 bytes, in depth-first order: an
- * interior node's "below" child (coordinates < split) is the next node, its "above" child is at
- * the index stored in `flags`.
+/* The axis bits of a kd-tree leaf (KdNode.flags). */
+#define KD_LEAF 3u
+
+/* A kd-tree node over a mesh's triangles (kdtree.h), 8 bytes, in depth-first order: an interior
+ * node's "below" child (coordinates < split) is the next node, its "above" child is at the index
+ * stored in `flags`.
  *   interior: flags = axis (0, 1, 2) | above_child << 2; data = the split coordinate's bits
  *   leaf:     flags = 3 | triangle_count << 2;           data = first entry in the mesh's
  *             triangle index list (the triangles overlapping the leaf) */
-#define KD_LEAF 3u
 typedef struct KdNode {
     uint flags;
     uint data;
 } KdNode;
 CLPT_ASSERT_SIZE(KdNode, 8);
 
-/* A node of a mesh's 8-wide BVH (src/accel/wide_bvh.rs, wide_bvh.h), a CPU's mesh tree: the
- * boxes of up to eight children as arrays per bound, so that one ray tests all
- * eight at once on float8. A child is another node's index (relative to the mesh's first node),
- * WIDE_BVH_LEAF | (count - 1) << 28 | first slot (relative to the mesh's first index), or
- * WIDE_BVH_EMPTY (its box empty). */
+/* Marks a wide BVH child that is a leaf: WIDE_BVH_LEAF | (count - 1) << 28 | first slot. */
 #define WIDE_BVH_LEAF 0x80000000u
+
+/* An unused child slot of a wide BVH node (its box empty). */
 #define WIDE_BVH_EMPTY 0xFFFFFFFFu
+
 /* The words of a leaf's triangle slot, which a wide BVH's first index counts in (in the
  * kd_indices buffer): the triangle's three vertices' numbers in the scene's vertex array and its
  * number in its mesh (src/device/upload.rs, wide_bvh.h). */
 #define WIDE_BVH_SLOT 4u
+
+/* A node of a mesh's 8-wide BVH (src/accel/wide_bvh.rs, wide_bvh.h), a CPU's mesh tree: the
+ * boxes of up to eight children as arrays per bound, so that one ray tests all eight at once on
+ * float8. A child is another node's index (relative to the mesh's first node), WIDE_BVH_LEAF |
+ * (count - 1) << 28 | first slot (relative to the mesh's first index), or WIDE_BVH_EMPTY (its
+ * box empty). */
 typedef struct WideBvhNode {
     float lo_x[8];
     float hi_x[8];
@@ -73,11 +83,15 @@ typedef struct WideBvhNode {
 } WideBvhNode;
 CLPT_ASSERT_SIZE(WideBvhNode, 224);
 
-/* A node of the object BVH (bvh.h) holding the boxes of both its children, so traversal tests
- * the two and descends into the nearer one first. A child is another node's index, or
- * BVH_LEAF | object index, or BVH_EMPTY (only in a one-object tree). */
+/* Marks an object BVH child that is an object: BVH_LEAF | object index. */
 #define BVH_LEAF 0x80000000u
+
+/* The missing second child of a one-object BVH. */
 #define BVH_EMPTY 0xFFFFFFFFu
+
+/* A node of the object BVH (bvh.h) holding the boxes of both its children, so traversal tests
+ * the two and descends into the nearer one first. A child is another node's index, or BVH_LEAF |
+ * object index, or BVH_EMPTY (only in a one-object tree). */
 typedef struct BvhNode {
     float lo0[3];
     float hi0[3];
@@ -87,9 +101,9 @@ typedef struct BvhNode {
 } BvhNode;
 CLPT_ASSERT_SIZE(BvhNode, 56);
 
-/* The camera (camera.cuh): smallpt's basis, plus a thin lens when focus_distance > 0.
- * A primary ray through image point (x, y), y = 0 the bottom row, has direction
- * cx*(x/w - 1/2) + cy*(y/h - 1/2) + forward. */
+/* The camera (camera.cuh): smallpt's basis, plus a thin lens when focus_distance > 0. A primary
+ * ray through image point (x, y), y = 0 the bottom row, has direction cx*(x/w - 1/2) + cy*(y/h -
+ * 1/2) + forward. */
 typedef struct Camera {
     float origin[3];
     float forward[3];      /* unit view direction d */
@@ -104,12 +118,12 @@ typedef struct Camera {
 } Camera;
 CLPT_ASSERT_SIZE(Camera, 88);
 
-/* A material (material.cuh): plain values, each replaced per texel by its map if it has one
- * (an index into the TextureMap array, or MAP_NONE). */
+/* A material (material.cuh): plain values, each replaced per texel by its map if it has one (an
+ * index into the TextureMap array, or MAP_NONE). */
 typedef struct Material {
     float emission[3];
     float color[3];
-    uint type;             /* MATERIAL_* */
+    uint kind;             /* MATERIAL_* */
     uint color_map;
     uint emission_map;
     uint type_map;
@@ -117,9 +131,11 @@ typedef struct Material {
 } Material;
 CLPT_ASSERT_SIZE(Material, 44);
 
-/* An affine object-to-world transform (transform.cuh) and its inverse, each the top three
- * rows of a 4x4 matrix, row by row (the bottom row is 0 0 0 1). */
+/* An object without a transform. */
 #define TRANSFORM_NONE 0xFFFFFFFFu
+
+/* An affine object-to-world transform (transform.cuh) and its inverse, each the top three rows
+ * of a 4x4 matrix, row by row (the bottom row is 0 0 0 1). */
 typedef struct Transform {
     float m[12];
     float inv[12];
@@ -140,11 +156,10 @@ typedef struct Sphere {
 } Sphere;
 CLPT_ASSERT_SIZE(Sphere, 40);
 
-/* A one-sided plane n.p = offset (plane.cuh), visible from the side n points to, limited to
- * the points p with |p - center| <= range in every coordinate (the original's bounding box,
- * centred on n*offset in the scene's own coordinates; the host moves both with the
- * camera-relative origin, src/device/upload.rs). centerp, dir_u, dir_v map texture
- * coordinates (texture issue). */
+/* A one-sided plane n.p = offset (plane.cuh), visible from the side n points to, limited to the
+ * points p with |p - center| <= range in every coordinate (the original's bounding box, centred
+ * on n*offset in the scene's own coordinates; the host moves both with the camera-relative
+ * origin, src/device/upload.rs). centerp, dir_u, dir_v map texture coordinates (texture issue). */
 typedef struct Plane {
     float normal[3];       /* unit */
     float offset;
@@ -182,8 +197,8 @@ CLPT_ASSERT_SIZE(MeshInstance, 12);
 
 /* A surface of revolution (revsurface.cuh): its profile as Bezier segments of one degree,
  * degree+1 (x, y) control points each, in the scene's float2 point array. The host centres the
- * profile's heights on 0 and moves the surface back by its transform, so the solver's
- * tolerances are relative to the profile's own size (revsurface.h). */
+ * profile's heights on 0 and moves the surface back by its transform, so the solver's tolerances
+ * are relative to the profile's own size (revsurface.h). */
 typedef struct RevSurface {
     uint first_point;
     uint num_segments;
@@ -201,16 +216,18 @@ CLPT_ASSERT_SIZE(RevSurface, 32);
 #define OBJECT_PLANE 1u
 #define OBJECT_MESH 2u
 #define OBJECT_REVSURFACE 3u
+
+/* An object of the object BVH's leaves (bvh.h). */
 typedef struct ObjectRef {
     uint kind;             /* OBJECT_* */
     uint index;
 } ObjectRef;
 CLPT_ASSERT_SIZE(ObjectRef, 8);
 
-/* An emitter of the light list that next-event estimation samples (nee.h), in world space
- * (the host applied its object's transform: src/device/lights.rs). Entries are sorted by
- * (kind, index, triangle), so that a hit finds its entry by binary search, and `cdf` rises along
- * them, so that a uniform number picks an entry with probability `prob`. */
+/* An emitter of the light list that next-event estimation samples (nee.h), in world space (the
+ * host applied its object's transform: src/device/lights.rs). Entries are sorted by (kind,
+ * index, triangle), so that a hit finds its entry by binary search, and `cdf` rises along them,
+ * so that a uniform number picks an entry with probability `prob`. */
 typedef struct Light {
     uint kind;             /* OBJECT_SPHERE, OBJECT_PLANE or OBJECT_MESH, as the hit is */
     uint index;            /* the sphere, plane or mesh instance */
@@ -219,16 +236,18 @@ typedef struct Light {
     float corner[3];       /* a sphere's centre; a square's or a triangle's first corner */
     float edge1[3];        /* a square's or a triangle's edges from that corner */
     float edge2[3];
-    float normal[3];       /* unit; a plane emits to this side, a triangle to both; a
-                            * sphere's visible cap is about it */
+    /* unit; a plane emits to this side, a triangle to both; a sphere's visible cap is about it */
+    float normal[3];
     float radius;          /* a sphere's */
     float area;            /* a square's or a triangle's; a sphere cap's */
     float prob;            /* the probability that light sampling picks this entry */
     float cdf;             /* the sum of prob up to and including this entry */
-    float cap_height;      /* a sphere's visible cap: the points q with
-                            * dot(q - corner, normal) >= radius - cap_height; 0: all of it */
-    uint solid_angle;      /* 1: a rectangle sampled by the solid angle it subtends (nee.h
-                            * sph_rect; a wall of the closed room); 0: by area */
+    /* a sphere's visible cap: the points q with dot(q - corner, normal) >= radius - cap_height;
+     * 0: all of it (src/device/lights.rs, `visible_cap`) */
+    float cap_height;
+    /* 1: a rectangle sampled by the solid angle it subtends (nee.h sph_rect; a wall of the
+     * closed room, src/device/lights.rs); 0: by area */
+    uint solid_angle;
 } Light;
 CLPT_ASSERT_SIZE(Light, 88);
 
@@ -239,7 +258,8 @@ typedef struct RenderParams {
     uint num_planes;
     uint num_mesh_instances;
     uint num_revsurfaces;
-    uint num_objects;      /* ObjectRef entries; [first_unbounded, num_objects) are outside the BVH */
+    /* ObjectRef entries; [first_unbounded, num_objects) are outside the BVH */
+    uint num_objects;
     uint first_unbounded;
     uint num_bvh_nodes;
     uint seed_lo;          /* the 64-bit --seed, the Philox key */
@@ -248,17 +268,56 @@ typedef struct RenderParams {
     uint rr_depth;         /* Russian roulette starts at this depth */
     uint texture_filter;   /* FILTER_* */
     uint num_lights;       /* Light entries of the light list (next-event estimation) */
-    float rr_threshold;    /* roulette's weight window: paths whose largest throughput
-                            * component is below it play roulette (pathtracer.cl) */
-    uint walls[6];         /* the planes tested as walls where there is no object BVH
-                            * (objects.h, walls_intersect): at 2k the one whose normal is +axis
-                            * k, at 2k + 1 the one whose normal is -axis k, or WALL_NONE */
-    uint wall_mask;        /* bit i: plane i is one of walls[] (the host picks only planes
-                            * numbered below 32) */
+    /* roulette's weight window: paths whose largest throughput component is below it play
+     * roulette (pathtracer.cl) */
+    float rr_threshold;
+    /* the planes tested as walls where there is no object BVH (objects.h, walls_intersect): at
+     * 2k the one whose normal is +axis k, at 2k + 1 the one whose normal is -axis k, or
+     * WALL_NONE (src/device/upload.rs, `walls`) */
+    uint walls[6];
+    /* bit i: plane i is one of walls[] (the host picks only planes numbered below 32) */
+    uint wall_mask;
 } RenderParams;
 CLPT_ASSERT_SIZE(RenderParams, 172);
 
 /* An empty slot of RenderParams.walls. */
 #define WALL_NONE 0xFFFFFFFFu
+
+/* One image row's error sums after some samples (pathtracer.cl error_rows, for the per-pass
+ * report: src/render/mod.rs), each over the row's pixels and channels. */
+typedef struct ErrorRow {
+    /* the estimated squared error of the mean: the difference of the even and odd halves
+     * squared, times n_even n_odd / n^2 (its expectation is the variance of the mean) */
+    float estimate;
+    float estimate_rel;    /* the same over (mean^2 + eps) */
+    float squared;         /* with a reference: the squared error */
+    float squared_rel;     /* with a reference: the squared error over (ref^2 + eps) */
+    float absolute;        /* with a reference: the absolute error */
+} ErrorRow;
+CLPT_ASSERT_SIZE(ErrorRow, 20);
+
+/* Every scene buffer, X(element type, parameter name), in the order kernels take them
+ * (src/contract/buffers.rs; objects.h builds the Scene struct and the kernels' parameter list
+ * from it). */
+#define SCENE_BUFFERS(X) \
+    X(RenderParams, params) \
+    X(Material, materials) \
+    X(Sphere, spheres) \
+    X(Plane, planes) \
+    X(TextureMap, maps) \
+    X(uchar, texels) \
+    X(Transform, transforms) \
+    X(MeshDesc, meshes) \
+    X(MeshInstance, mesh_instances) \
+    X(KdNode, kd_nodes) \
+    X(uint, kd_indices) \
+    X(uint, triangles) \
+    X(float, vertices) \
+    X(float, normals) \
+    X(ObjectRef, objects) \
+    X(BvhNode, bvh) \
+    X(RevSurface, revsurfaces) \
+    X(float2, rev_points) \
+    X(Light, lights)
 
 #endif

@@ -2,10 +2,11 @@
 //! course path tracer (see README.md for the map from the original's files to these).
 //!
 //! The data takes one road: scene file → [`scene`] → [`device::upload`] (packed f32 structs of
-//! `kernels/types.h`) → [`device::program`] (the one kernel loader) → [`render`] (passes of
-//! launches) → [`render::film`] (image files).
+//! [`contract`], which `kernels/types.h` is written from) → [`device::program`] (the one
+//! kernel loader) → [`render`] (passes of launches) → [`render::film`] (image files).
 
 pub mod accel;
+pub mod contract;
 pub mod device;
 pub mod error;
 pub mod input;

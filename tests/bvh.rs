@@ -8,7 +8,7 @@ mod common;
 
 use clpt::accel::aabb::Aabb;
 use clpt::accel::bvh::{self, Bvh, MAX_DEPTH, morton_code};
-use clpt::device::layout::{BVH_EMPTY, BVH_LEAF};
+use clpt::contract::{BVH_EMPTY, BVH_LEAF};
 use glam::DVec3;
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};

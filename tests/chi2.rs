@@ -23,7 +23,7 @@ mod common;
 
 use common::Probes;
 
-use clpt::device::layout::{Light, OBJECT_MESH, OBJECT_PLANE, OBJECT_SPHERE};
+use clpt::contract::{Light, OBJECT_MESH, OBJECT_PLANE, OBJECT_SPHERE};
 use common::chi2;
 use glam::DVec3;
 use rand::rngs::SmallRng;

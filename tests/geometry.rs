@@ -5,7 +5,7 @@
 
 mod common;
 
-use clpt::device::layout::{Plane, Sphere};
+use clpt::contract::{Plane, Sphere};
 use common::reference::{self, v3};
 use glam::DVec3;
 use rand::rngs::SmallRng;

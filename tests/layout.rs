@@ -1,5 +1,6 @@
-//! The shared structs have the same size and field offsets on the device as in Rust, and the
-//! kernel loader's output compiles and names files and lines in build errors.
+//! The shared structs have the same size and field offsets on the device as in Rust,
+//! `kernels/types.h` is what the host's one definition of them writes, and the kernel loader's
+//! output compiles and names files and lines in build errors.
 
 mod common;
 
@@ -10,6 +11,31 @@ use clpt::device::program::{self, KernelSources};
 fn device_layout_matches_rust() {
     let device = common::device();
     layout::verify(&device, &KernelSources::Embedded).expect("layout probe");
+}
+
+/// `kernels/types.h` is written from `src/contract` (its one definition), never by hand:
+/// `CLPT_WRITE_TYPES_H=1` rewrites it, and without it any difference fails.
+#[test]
+fn types_h_is_written_from_the_contract() {
+    let path = clpt::device::program::checkout_kernel_dir().join("types.h");
+    let want = clpt::contract::header::text();
+    if std::env::var_os("CLPT_WRITE_TYPES_H").is_some() {
+        std::fs::write(&path, &want).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    }
+    let have = std::fs::read_to_string(&path).unwrap_or_default();
+    if have != want {
+        let line = have
+            .lines()
+            .zip(want.lines())
+            .position(|(a, b)| a != b)
+            .unwrap_or(have.lines().count().min(want.lines().count()));
+        panic!(
+            "{} differs from src/contract's declarations from line {} on; run \
+             CLPT_WRITE_TYPES_H=1 cargo test --release --test layout",
+            path.display(),
+            line + 1
+        );
+    }
 }
 
 #[test]
@@ -103,4 +129,39 @@ fn logs_of_compilers_that_ignore_line_markers_are_mapped_back() {
         mapped,
         format!("rng.h:{at}:20: error: something\nnote: unrelated: text\nrng.h:3:1: kept")
     );
+}
+
+/// Kernel arguments go by name: where the driver reports the kernel's parameter names, an
+/// argument bound under another name than the kernel's is an error when the kernel is made.
+#[test]
+fn kernel_arguments_bound_under_a_wrong_name_are_refused() {
+    use clpt::device::kernel::NamedArgs;
+    let device = common::device();
+    let source = KernelSources::Embedded
+        .expand_text(
+            "named.cl",
+            "__kernel void k(__global float* out, uint count) { out[0] = (float)count; }\n",
+        )
+        .unwrap();
+    let built = program::build(&device, source, program::build_options(&[]), None).unwrap();
+    let out = common::output::<f32>(&device, 1);
+    let bind = |first: &'static str, second: &'static str| {
+        NamedArgs::new(&built.program, "k", &device.queue)
+            .buffer(first, &out)
+            .scalar(second, 3u32)
+            .build()
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+    };
+    bind("out", "count").expect("the kernel's own names");
+    match bind("out", "counts") {
+        Err(e) => assert!(
+            e.contains("`count` in the kernel, `counts` on the host"),
+            "{e}"
+        ),
+        Ok(()) => eprintln!(
+            "SKIPPED: {} reports no argument names for this program",
+            device.description.name
+        ),
+    }
 }

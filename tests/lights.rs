@@ -11,7 +11,7 @@
 
 mod common;
 
-use clpt::device::layout::{Light, OBJECT_MESH, OBJECT_PLANE, OBJECT_SPHERE};
+use clpt::contract::{Light, OBJECT_MESH, OBJECT_PLANE, OBJECT_SPHERE};
 use clpt::device::lights::Room;
 use clpt::device::upload::PackedScene;
 use clpt::scene::Scene;

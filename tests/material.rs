@@ -20,7 +20,7 @@ mod common;
 
 use common::Probes;
 
-use clpt::device::layout::{MATERIAL_DIFFUSE, MATERIAL_REFRACTIVE, MATERIAL_SPECULAR};
+use clpt::contract::{MATERIAL_DIFFUSE, MATERIAL_REFRACTIVE, MATERIAL_SPECULAR};
 use common::chi2;
 use glam::DVec3;
 use ocl::prm::Float4;

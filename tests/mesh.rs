@@ -448,7 +448,7 @@ fn transformed_spheres_planes_and_meshes_match_f64() {
     let ico = TriangleMesh::load(&dir.join("ico.obj")).unwrap();
     let device = common::device();
     let mut rng = SmallRng::seed_from_u64(44);
-    let sphere = clpt::device::layout::Sphere {
+    let sphere = clpt::contract::Sphere {
         center: [0.3, 0.1, -0.2],
         radius: 1.0,
         ..Default::default()
@@ -491,7 +491,7 @@ fn transformed_spheres_planes_and_meshes_match_f64() {
                     2 => {
                         // Normal +z (the default), its box centred on n * offset as the
                         // scene's is.
-                        let plane = clpt::device::layout::Plane {
+                        let plane = clpt::contract::Plane {
                             offset: 0.25,
                             range: 2.0,
                             center: [0.0, 0.0, 0.25],

@@ -8,7 +8,7 @@
 
 mod common;
 
-use clpt::device::layout::{self, FILTER_BILINEAR, FILTER_NEAREST};
+use clpt::contract::{self, FILTER_BILINEAR, FILTER_NEAREST};
 use clpt::device::program::KernelSources;
 use clpt::device::upload::{PackedScene, SceneBuffers};
 use clpt::render::{RenderOptions, Renderer, TextureFilter};
@@ -230,9 +230,9 @@ fn crc32(bytes: &[u8]) -> u32 {
 #[test]
 fn type_map_rule_and_ties() {
     let (d, m, g) = (
-        layout::MATERIAL_DIFFUSE,
-        layout::MATERIAL_SPECULAR,
-        layout::MATERIAL_REFRACTIVE,
+        contract::MATERIAL_DIFFUSE,
+        contract::MATERIAL_SPECULAR,
+        contract::MATERIAL_REFRACTIVE,
     );
     for (texel, want) in [
         ([255, 0, 0], d),
@@ -480,7 +480,7 @@ fn plane_and_sphere_mapping_match_f64() {
     let dir_u = DVec3::new(0.05, 0.0, 0.02);
     let dir_v = DVec3::new(0.0, 0.25, 0.0);
     let centerp = DVec3::new(3.0, -2.0, 0.0);
-    let plane = layout::Plane {
+    let plane = contract::Plane {
         normal: [0.0, 0.0, 1.0],
         offset: 0.0,
         range: 1000.0,
@@ -491,7 +491,7 @@ fn plane_and_sphere_mapping_match_f64() {
     };
     let center = DVec3::new(1.0, 2.0, -40.0);
     let radius = 7.0;
-    let sphere = layout::Sphere {
+    let sphere = contract::Sphere {
         center: center.as_vec3().to_array(),
         radius: 7.0,
         ..Default::default()

@@ -25,7 +25,7 @@
 //! check against brute force.
 
 use super::aabb::Aabb;
-use crate::device::layout::{BVH_EMPTY, BVH_LEAF, BvhNode};
+use crate::contract::{BVH_EMPTY, BVH_LEAF, BvhNode};
 use glam::DVec3;
 
 /// The most objects a tree can index: a leaf child is `BVH_LEAF | object`, and object

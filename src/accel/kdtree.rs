@@ -50,7 +50,7 @@
 //! can hit them, and a zero-area box would only attract pointless splits.
 
 use super::aabb::Aabb;
-use crate::device::layout::KdNode;
+use crate::contract::KdNode;
 use glam::DVec3;
 use std::sync::atomic::{AtomicUsize, Ordering};
 

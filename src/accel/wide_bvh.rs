@@ -14,7 +14,7 @@
 
 use super::aabb::Aabb;
 use super::kdtree::{Tri, valid_triangles};
-use crate::device::layout::{WIDE_BVH_EMPTY, WIDE_BVH_LEAF, WideBvhNode};
+use crate::contract::{WIDE_BVH_EMPTY, WIDE_BVH_LEAF, WideBvhNode};
 use glam::DVec3;
 
 /// Children a node holds (the eight of `WideBvhNode` in types.h).

@@ -107,8 +107,8 @@
 //! area density. Larger caps are sampled as the whole sphere, by its cone, which serves them
 //! better (a cap's back side, seen from a point, is hidden by its front).
 
-use super::layout::{self, Light, Material, MeshDesc, TextureMap, Transform};
 use super::upload::f32x3;
+use crate::contract::{self, Light, Material, MeshDesc, TextureMap, Transform};
 use crate::scene::camera::CameraBasis;
 use glam::{DMat3, DVec3};
 use std::f64::consts::PI;
@@ -121,11 +121,11 @@ pub struct LightSources<'a> {
     /// Texture maps and their texels: a wall's type map must hold no glass.
     pub maps: &'a [TextureMap],
     pub texels: &'a [u8],
-    pub spheres: &'a [layout::Sphere],
-    pub planes: &'a [layout::Plane],
+    pub spheres: &'a [contract::Sphere],
+    pub planes: &'a [contract::Plane],
     pub transforms: &'a [Transform],
     pub meshes: &'a [MeshDesc],
-    pub mesh_instances: &'a [layout::MeshInstance],
+    pub mesh_instances: &'a [contract::MeshInstance],
     pub triangles: &'a [[u32; 3]],
     pub vertices: &'a [[f32; 3]],
 }
@@ -152,7 +152,7 @@ pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
         let radius = s.radius_f64() * scale;
         let center = affine.point(s.center_f64());
         let mut light = Light {
-            kind: layout::OBJECT_SPHERE,
+            kind: contract::OBJECT_SPHERE,
             index: i as u32,
             material: s.material,
             corner: f32x3(center),
@@ -213,7 +213,7 @@ pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
             area *= (a1 - a0) * (b1 - b0);
         }
         let light = Light {
-            kind: layout::OBJECT_PLANE,
+            kind: contract::OBJECT_PLANE,
             index: i as u32,
             material: p.material,
             corner: f32x3(corner),
@@ -251,7 +251,7 @@ pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
                 continue; // wholly outside the room: no path sees it
             }
             let light = Light {
-                kind: layout::OBJECT_MESH,
+                kind: contract::OBJECT_MESH,
                 index: i as u32,
                 triangle: t as u32,
                 material: inst.material,
@@ -310,9 +310,9 @@ pub fn report(lights: &[Light], room: Option<&Room>, origin: DVec3) -> String {
     };
     format!(
         "light list: {} spheres, {} plane squares, {} triangles; {clipped}",
-        count(layout::OBJECT_SPHERE),
-        count(layout::OBJECT_PLANE),
-        count(layout::OBJECT_MESH)
+        count(contract::OBJECT_SPHERE),
+        count(contract::OBJECT_PLANE),
+        count(contract::OBJECT_MESH)
     )
 }
 
@@ -410,7 +410,7 @@ pub fn closed_room(scene: &LightSources) -> Option<Room> {
         let nk = f64::from(p.normal[k]);
         let c = f64::from(p.offset) / nk;
         let range = f64::from(p.range);
-        if p.transform != layout::TRANSFORM_NONE
+        if p.transform != contract::TRANSFORM_NONE
             || !reflects_only(scene, m)
             || !c.is_finite()
             || range.is_nan()
@@ -531,7 +531,7 @@ pub fn visible_cap(
         let Some(m) = scene.materials.get(s.material as usize) else {
             continue;
         };
-        if j == light || s.transform != layout::TRANSFORM_NONE || !reflects_only(scene, m) {
+        if j == light || s.transform != contract::TRANSFORM_NONE || !reflects_only(scene, m) {
             continue;
         }
         let (c2, r2) = (s.center_f64(), s.radius_f64());
@@ -588,19 +588,19 @@ fn eye_points(cam: &CameraBasis) -> Vec<DVec3> {
 /// from (diffuse or mirror, nowhere glass): its type, or every texel of its type map
 /// (pathtracer.cl `material_at` reads type maps at the nearest texel, unfiltered).
 fn reflects_only(scene: &LightSources, m: &Material) -> bool {
-    if m.type_map == layout::MAP_NONE {
-        return m.kind != layout::MATERIAL_REFRACTIVE;
+    if m.type_map == contract::MAP_NONE {
+        return m.kind != contract::MATERIAL_REFRACTIVE;
     }
     let Some(map) = scene.maps.get(m.type_map as usize) else {
         return false;
     };
     let start = map.offset as usize;
     let end = start + map.width as usize * map.height as usize;
-    map.format == layout::MAP_TYPE8
+    map.format == contract::MAP_TYPE8
         && scene.texels.get(start..end).is_some_and(|types| {
             !types
                 .iter()
-                .any(|&t| u32::from(t) == layout::MATERIAL_REFRACTIVE)
+                .any(|&t| u32::from(t) == contract::MATERIAL_REFRACTIVE)
         })
 }
 
@@ -608,7 +608,7 @@ fn reflects_only(scene: &LightSources, m: &Material) -> bool {
 fn constant_emission(materials: &[Material], material: u32) -> Option<f64> {
     let m = materials.get(material as usize)?;
     let le = m.emission.iter().map(|&e| f64::from(e)).sum::<f64>() / 3.0;
-    (m.emission.iter().any(|&e| e > 0.0) && m.emission_map == layout::MAP_NONE).then_some(le)
+    (m.emission.iter().any(|&e| e > 0.0) && m.emission_map == contract::MAP_NONE).then_some(le)
 }
 
 fn dvec(v: [f32; 3]) -> DVec3 {

@@ -292,11 +292,12 @@ fn include_target(line: &str) -> Option<std::result::Result<&str, ()>> {
 }
 
 /// Every compiler option clpt passes, from one place. No fast-math: the ray-spawning error
-/// bounds (kernels/ray.h) assume IEEE rounding.
+/// bounds (kernels/ray.h) assume IEEE rounding. `-cl-kernel-arg-info` keeps the parameters'
+/// names in the program, against which the host's argument names are checked
+/// ([`super::kernel::NamedArgs`]).
 pub fn build_options(defines: &[(&str, String)]) -> String {
-    defines
-        .iter()
-        .map(|(k, v)| format!("-D{k}={v}"))
+    std::iter::once("-cl-kernel-arg-info".to_string())
+        .chain(defines.iter().map(|(k, v)| format!("-D{k}={v}")))
         .collect::<Vec<_>>()
         .join(" ")
 }

@@ -21,15 +21,15 @@
 //! loaded once for each.
 
 use super::Device;
-use super::layout::{
-    self, BvhNode, KdNode, Light, Material, MeshDesc, MeshInstance, ObjectRef, Plane, RenderParams,
-    RevSurface, Sphere, Transform, WideBvhNode,
-};
 use super::lights;
 use crate::accel::aabb::Aabb;
 use crate::accel::bvh::Bvh;
 use crate::accel::kdtree::{KdParams, KdTree};
 use crate::accel::wide_bvh::WideBvh;
+use crate::contract::{
+    self, BvhNode, KdNode, Light, Material, MeshDesc, MeshInstance, ObjectRef, Plane, RenderParams,
+    RevSurface, Sphere, Transform, WideBvhNode,
+};
 use crate::error::{Error, Result};
 use crate::scene::camera::CameraBasis;
 use crate::scene::mesh::{self, TriangleMesh};
@@ -179,9 +179,9 @@ impl PackedScene {
                     emission: f32x3(m.emission),
                     color: f32x3(m.color),
                     kind: match m.kind {
-                        MaterialKind::Diffuse => layout::MATERIAL_DIFFUSE,
-                        MaterialKind::Specular => layout::MATERIAL_SPECULAR,
-                        MaterialKind::Refractive => layout::MATERIAL_REFRACTIVE,
+                        MaterialKind::Diffuse => contract::MATERIAL_DIFFUSE,
+                        MaterialKind::Specular => contract::MATERIAL_SPECULAR,
+                        MaterialKind::Refractive => contract::MATERIAL_REFRACTIVE,
                     },
                     color_map,
                     emission_map,
@@ -286,7 +286,7 @@ impl PackedScene {
                     packed.rev_points.extend(stored);
                     let world = placed.unwrap_or(to_device);
                     let b = transform_box(&curve.revolution_bounds(), Some(&world));
-                    packed.push_object(layout::OBJECT_REVSURFACE, packed.revsurfaces.len(), b);
+                    packed.push_object(contract::OBJECT_REVSURFACE, packed.revsurfaces.len(), b);
                     packed.revsurfaces.push(revsurface);
                 }
                 Shape::Mesh { file } => {
@@ -323,7 +323,7 @@ impl PackedScene {
                         hi: DVec3::from(desc.hi.map(f64::from)),
                     };
                     packed.push_object(
-                        layout::OBJECT_MESH,
+                        contract::OBJECT_MESH,
                         packed.mesh_instances.len(),
                         transform_box(&bounds, transform),
                     );
@@ -408,7 +408,7 @@ impl PackedScene {
 
     fn push_transform(&mut self, m: Option<&DMat4>) -> u32 {
         match m {
-            None => layout::TRANSFORM_NONE,
+            None => contract::TRANSFORM_NONE,
             Some(m) => {
                 self.transforms.push(Transform {
                     m: rows3x4(m),
@@ -437,7 +437,7 @@ impl PackedScene {
             },
             transform,
         );
-        self.push_object(layout::OBJECT_SPHERE, self.spheres.len(), b);
+        self.push_object(contract::OBJECT_SPHERE, self.spheres.len(), b);
         self.spheres.push(s);
     }
 
@@ -452,7 +452,7 @@ impl PackedScene {
             },
             transform,
         );
-        self.push_object(layout::OBJECT_PLANE, self.planes.len(), b);
+        self.push_object(contract::OBJECT_PLANE, self.planes.len(), b);
         self.planes.push(p);
     }
 
@@ -480,7 +480,7 @@ impl PackedScene {
             self.wide_nodes.extend(&tree.nodes);
             // Each leaf slot: the triangle's vertices, numbered in the scene's vertex array,
             // and its number in the mesh (kernels/wide_bvh.h reads them at once).
-            const { assert!(layout::WIDE_BVH_SLOT == 4) };
+            const { assert!(contract::WIDE_BVH_SLOT == 4) };
             let first_vertex = self.vertices.len();
             for &number in &tree.indices {
                 let tri = mesh.triangles[number as usize];
@@ -645,10 +645,10 @@ impl PackedScene {
 /// where a room's six walls took six. Other planes, a second one facing the same way included,
 /// stay in the plane loop: any choice of walls finds the same hits.
 pub fn walls(planes: &[Plane]) -> ([u32; 6], u32) {
-    let mut slots = [layout::WALL_NONE; 6];
+    let mut slots = [contract::WALL_NONE; 6];
     let mut mask = 0u32;
     for (i, p) in planes.iter().enumerate().take(32) {
-        if p.transform != layout::TRANSFORM_NONE {
+        if p.transform != contract::TRANSFORM_NONE {
             continue;
         }
         let Some(k) = p.axis() else {
@@ -659,7 +659,7 @@ pub fn walls(planes: &[Plane]) -> ([u32; 6], u32) {
             -1.0 => 2 * k + 1,
             _ => continue,
         };
-        if slots[slot] == layout::WALL_NONE {
+        if slots[slot] == contract::WALL_NONE {
             slots[slot] = i as u32;
             mask |= 1 << i;
         }
@@ -689,28 +689,8 @@ pub fn upload_slice<T: bytemuck::Pod + Default>(
         .map_err(|e| Error::opencl("uploading scene data", e))
 }
 
-/// The scene's device buffers, in the order the kernels take them (`Scene` in objects.h).
-pub struct SceneBuffers {
-    pub params: ocl::Buffer<u8>,
-    pub materials: ocl::Buffer<u8>,
-    pub spheres: ocl::Buffer<u8>,
-    pub planes: ocl::Buffer<u8>,
-    pub maps: ocl::Buffer<u8>,
-    pub texels: ocl::Buffer<u8>,
-    pub transforms: ocl::Buffer<u8>,
-    pub meshes: ocl::Buffer<u8>,
-    pub mesh_instances: ocl::Buffer<u8>,
-    pub kd_nodes: ocl::Buffer<u8>,
-    pub kd_indices: ocl::Buffer<u8>,
-    pub triangles: ocl::Buffer<u8>,
-    pub vertices: ocl::Buffer<u8>,
-    pub normals: ocl::Buffer<u8>,
-    pub objects: ocl::Buffer<u8>,
-    pub bvh: ocl::Buffer<u8>,
-    pub revsurfaces: ocl::Buffer<u8>,
-    pub rev_points: ocl::Buffer<u8>,
-    pub lights: ocl::Buffer<u8>,
-}
+/// The scene's device buffers, one per name of [`SCENE_BUFFERS`](crate::contract::SCENE_BUFFERS).
+pub type SceneBuffers = crate::contract::SceneBuffers<ocl::Buffer<u8>>;
 
 impl SceneBuffers {
     pub fn new(device: &Device, packed: &PackedScene, params: &RenderParams) -> Result<Self> {
@@ -739,30 +719,5 @@ impl SceneBuffers {
             rev_points: upload_slice(device, &packed.rev_points)?,
             lights: upload_slice(device, &packed.lights)?,
         })
-    }
-
-    /// Every buffer in kernel-argument order (the `Scene` struct of objects.h).
-    pub fn in_order(&self) -> [&ocl::Buffer<u8>; 19] {
-        [
-            &self.params,
-            &self.materials,
-            &self.spheres,
-            &self.planes,
-            &self.maps,
-            &self.texels,
-            &self.transforms,
-            &self.meshes,
-            &self.mesh_instances,
-            &self.kd_nodes,
-            &self.kd_indices,
-            &self.triangles,
-            &self.vertices,
-            &self.normals,
-            &self.objects,
-            &self.bvh,
-            &self.revsurfaces,
-            &self.rev_points,
-            &self.lights,
-        ]
     }
 }

@@ -146,7 +146,7 @@ impl Features {
     /// there: a warp's rays face both walls of an axis as a CPU's lanes do, but no GPU was at
     /// hand (BENCHMARKS.md, "Walls").
     pub fn walls_on(&self, slots: &[u32; 6], device: &crate::device::DeviceDescription) -> bool {
-        let none = crate::device::layout::WALL_NONE;
+        let none = crate::contract::WALL_NONE;
         !self.bvh
             && !device.is_gpu
             && slots

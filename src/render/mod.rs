@@ -24,7 +24,8 @@ pub mod resume;
 pub mod strategy;
 pub mod trial;
 
-use crate::device::layout::{self, RenderParams};
+use crate::contract::{self, ErrorRow, RenderParams};
+use crate::device::kernel::NamedArgs;
 use crate::device::program::{self, BuiltProgram, KernelSources};
 use crate::device::upload::{PackedScene, SceneBuffers};
 use crate::device::{Device, DeviceDescription};
@@ -549,29 +550,27 @@ impl ErrorKernel {
             .copy_host_slice(&reference)
             .build()
             .map_err(fail)?;
+        // One ErrorRow (kernels/types.h) a row, as the floats it is made of.
+        let row_floats = size_of::<ErrorRow>() / size_of::<f32>();
         let rows = ocl::Buffer::<f32>::builder()
             .queue(device.queue.clone())
-            .len(height as usize * 5)
+            .len(height as usize * row_floats)
             .build()
             .map_err(fail)?;
-        let mut builder = ocl::Kernel::builder();
-        builder
-            .program(program)
-            .name("error_rows")
-            .queue(device.queue.clone())
-            .global_work_size(height as usize);
-        for buffer in film {
-            builder.arg(buffer);
-        }
-        let kernel = builder
-            .arg(&reference)
-            .arg(options.reference.is_some() as u32)
-            .arg(width)
-            .arg_named("spp", 0u32)
-            .arg(metrics::REL_EPSILON)
-            .arg(&rows)
-            .build()
-            .map_err(fail)?;
+        let [sum, sum_lo, sum_odd, sum_odd_lo] = film;
+        let kernel = NamedArgs::new(program, "error_rows", &device.queue)
+            .global_work_size(height as usize)
+            .buffer("sum", sum)
+            .buffer("sum_lo", sum_lo)
+            .buffer("sum_odd", sum_odd)
+            .buffer("sum_odd_lo", sum_odd_lo)
+            .buffer("reference", &reference)
+            .scalar("has_reference", options.reference.is_some() as u32)
+            .scalar("width", width)
+            .scalar("spp", 0u32)
+            .scalar("eps", metrics::REL_EPSILON)
+            .buffer("out", &rows)
+            .build()?;
         Ok(ErrorKernel {
             kernel,
             rows,
@@ -586,23 +585,20 @@ impl ErrorKernel {
         self.kernel.set_arg("spp", spp).map_err(fail)?;
         // SAFETY: every buffer is alive and sized for the image's rows; one work-item a row.
         unsafe { self.kernel.enq() }.map_err(fail)?;
-        let mut rows = vec![0.0f32; self.rows.len()];
-        self.rows.read(&mut rows).enq().map_err(fail)?;
-        let mut sums = [0.0f64; 5];
-        for row in rows.chunks_exact(5) {
-            for (s, v) in sums.iter_mut().zip(row) {
-                *s += *v as f64;
-            }
-        }
+        let mut floats = vec![0.0f32; self.rows.len()];
+        self.rows.read(&mut floats).enq().map_err(fail)?;
+        let rows: &[ErrorRow] = bytemuck::cast_slice(&floats);
+        let sum =
+            |field: fn(&ErrorRow) -> f32| rows.iter().map(|r| f64::from(field(r))).sum::<f64>();
         let n = pixels * 3.0;
         let estimate = ErrorEstimate {
-            rmse: (sums[0] / n).sqrt(),
-            relmse: sums[1] / n,
+            rmse: (sum(|r| r.estimate) / n).sqrt(),
+            relmse: sum(|r| r.estimate_rel) / n,
         };
         let measured = self.has_reference.then(|| Metrics {
-            rmse: (sums[2] / n).sqrt(),
-            relmse: sums[3] / n,
-            mae: sums[4] / n,
+            rmse: (sum(|r| r.squared) / n).sqrt(),
+            relmse: sum(|r| r.squared_rel) / n,
+            mae: sum(|r| r.absolute) / n,
         });
         Ok((estimate, measured))
     }
@@ -657,8 +653,8 @@ impl<'d> Renderer<'d> {
             wide_bvh,
         )?;
         let filter = match options.texture_filter {
-            TextureFilter::Bilinear => layout::FILTER_BILINEAR,
-            TextureFilter::Nearest => layout::FILTER_NEAREST,
+            TextureFilter::Bilinear => contract::FILTER_BILINEAR,
+            TextureFilter::Nearest => contract::FILTER_NEAREST,
         };
         let params: RenderParams =
             packed.params(options.seed, options.max_depth, options.rr_depth, filter);
@@ -711,32 +707,24 @@ impl<'d> Renderer<'d> {
                 &features.defines(),
                 options.cache_dir.as_deref(),
             )?;
-            let mut builder = ocl::Kernel::builder();
-            builder
-                .program(&program.program)
-                .name("render_pass")
-                .queue(device.queue.clone())
-                .global_work_size([GROUP, GROUP]);
-            for buffer in scene_buffers.in_order() {
-                builder.arg(buffer);
-            }
-            let kernel = builder
-                .arg(&sum)
-                .arg(&sum_lo)
-                .arg(&sum_sq)
-                .arg(&sum_odd)
-                .arg(&sum_odd_lo)
-                .arg(&bad)
-                .arg(&bad_first)
-                .arg_named("sample_start", 0u32)
-                .arg_named("sample_count", 0u32)
-                .arg_named("row_start", 0u32)
-                .arg_named("row_count", 0u32)
-                .arg_named("row_step", 1u32)
-                .arg_named("col_start", 0u32)
-                .arg_named("col_step", 1u32)
-                .build()
-                .map_err(|e| Error::opencl("creating the render kernel", e))?;
+            let kernel = NamedArgs::new(&program.program, "render_pass", &device.queue)
+                .global_work_size([GROUP, GROUP])
+                .scene(&scene_buffers)
+                .buffer("sum", &sum)
+                .buffer("sum_lo", &sum_lo)
+                .buffer("sum_sq", &sum_sq)
+                .buffer("sum_odd", &sum_odd)
+                .buffer("sum_odd_lo", &sum_odd_lo)
+                .buffer("bad", &bad)
+                .buffer("bad_first", &bad_first)
+                .scalar("sample_start", 0u32)
+                .scalar("sample_count", 0u32)
+                .scalar("row_start", 0u32)
+                .scalar("row_count", 0u32)
+                .scalar("row_step", 1u32)
+                .scalar("col_start", 0u32)
+                .scalar("col_step", 1u32)
+                .build()?;
             estimators.push(Estimator {
                 light_sampling,
                 features,

@@ -7,6 +7,7 @@
 use super::Rows;
 use super::strategy::TrialSums;
 use crate::device::Device;
+use crate::device::kernel::NamedArgs;
 use crate::device::program::{self, BuiltProgram, KernelSources};
 use crate::error::{Error, Result};
 use std::path::Path;
@@ -52,45 +53,34 @@ impl TrialKernels {
         ];
         let program = program::build_entry(device, sources, "trial.cl", &defines, cache)?;
         let queue = device.queue.clone();
-        let bad = fail("creating the trial's kernels");
-        let placeholder = None::<&ocl::Buffer<f32>>;
-        let keep = ocl::Kernel::builder()
-            .program(&program.program)
-            .name("trial_keep")
-            .queue(queue.clone())
-            .arg(sum)
-            .arg(sum_odd)
-            .arg(sum_lo)
-            .arg(sum_sq)
-            .arg(sum_odd_lo)
-            .arg(width)
-            .arg_named("row_start", 0u32)
-            .arg_named("row_step", 1u32)
-            .arg_named("row_count", 0u32)
-            .arg_named("slot", 0u32)
-            .arg_named("col_start", 0u32)
-            .arg_named("col_step", 1u32)
-            .arg_named("columns", 0u32)
-            .arg_named("clear", 0u32)
-            .arg_named("kept", placeholder)
-            .build()
-            .map_err(&bad)?;
+        let keep = NamedArgs::new(&program.program, "trial_keep", &queue)
+            .buffer("sum", sum)
+            .buffer("sum_odd", sum_odd)
+            .buffer("sum_lo", sum_lo)
+            .buffer("sum_sq", sum_sq)
+            .buffer("sum_odd_lo", sum_odd_lo)
+            .scalar("width", width)
+            .scalar("row_start", 0u32)
+            .scalar("row_step", 1u32)
+            .scalar("row_count", 0u32)
+            .scalar("slot", 0u32)
+            .scalar("col_start", 0u32)
+            .scalar("col_step", 1u32)
+            .scalar("columns", 0u32)
+            .scalar("clear", 0u32)
+            .buffer_later::<f32>("kept")
+            .build()?;
         let reduction = |name: &'static str, terms: bool| {
-            let mut builder = ocl::Kernel::builder();
-            builder
-                .program(&program.program)
-                .name(name)
-                .queue(queue.clone())
-                .arg_named("kept", placeholder)
-                .arg_named("pixels", 0u32)
-                .arg_named("films", 0u32)
-                .arg_named("samples", 0u32);
+            let mut args = NamedArgs::new(&program.program, name, &queue);
+            args.buffer_later::<f32>("kept")
+                .scalar("pixels", 0u32)
+                .scalar("films", 0u32)
+                .scalar("samples", 0u32);
             if terms {
-                builder
-                    .arg_named("weights", placeholder)
-                    .arg(super::metrics::REL_EPSILON);
+                args.buffer_later::<f32>("weights")
+                    .scalar("eps", super::metrics::REL_EPSILON);
             }
-            builder.arg_named("out", placeholder).build().map_err(&bad)
+            args.buffer_later::<f32>("out").build()
         };
         let totals = reduction("trial_totals", false)?;
         let terms = reduction("trial_terms", true)?;

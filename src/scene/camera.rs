@@ -1,12 +1,12 @@
 //! The camera's basis (host side of camera.cuh): smallpt's image plane, computed in f64 from the
-//! scene file's `PerspectiveCamera` and handed to the device as `layout::Camera`.
+//! scene file's `PerspectiveCamera` and handed to the device as `contract::Camera`.
 //!
 //! d = normalize(direction), a = angle in radians, cx = (w a / h, 0, 0) (always world +x),
 //! cy = normalize(cx x d) a. The vertical field of view is therefore 2 atan(a / 2), not `angle`:
 //! that is the original's (and smallpt's) model, kept so its scene files frame the same picture.
 
 use super::CameraDesc;
-use crate::device::layout;
+use crate::contract;
 use crate::error::{Error, Result};
 use glam::DVec3;
 
@@ -80,9 +80,9 @@ impl CameraBasis {
     }
 
     /// The f32 copy the kernels read.
-    pub fn to_device(&self) -> layout::Camera {
+    pub fn to_device(&self) -> contract::Camera {
         let v = |d: DVec3| d.as_vec3().to_array();
-        layout::Camera {
+        contract::Camera {
             origin: v(self.origin),
             forward: v(self.forward),
             cx: v(self.cx),

@@ -10,7 +10,7 @@
 //! v into gradients in [-1, 1].
 
 use super::{Scene, Shape};
-use crate::device::layout::{self, MAP_BUMP8, MAP_RGB8, MAP_TYPE8, TextureMap};
+use crate::contract::{self, MAP_BUMP8, MAP_RGB8, MAP_TYPE8, TextureMap};
 use crate::error::{Error, Result};
 use crate::render::memory::{gib, host_available_bytes};
 use bytemuck::Zeroable;
@@ -248,11 +248,11 @@ where
 pub fn material_type_of(texel: [u8; 3]) -> u32 {
     let [r, g, b] = texel;
     if r >= g && r >= b {
-        layout::MATERIAL_DIFFUSE
+        contract::MATERIAL_DIFFUSE
     } else if g >= b {
-        layout::MATERIAL_SPECULAR
+        contract::MATERIAL_SPECULAR
     } else {
-        layout::MATERIAL_REFRACTIVE
+        contract::MATERIAL_REFRACTIVE
     }
 }
 
@@ -284,7 +284,7 @@ pub struct TexturePack {
     pub maps: Vec<TextureMap>,
     pub texels: Vec<u8>,
     pub info: Vec<MapInfo>,
-    /// Per material: (color, emission, type, bump) map index or `layout::MAP_NONE`.
+    /// Per material: (color, emission, type, bump) map index or `contract::MAP_NONE`.
     pub material_maps: Vec<[u32; 4]>,
 }
 
@@ -293,7 +293,7 @@ impl TexturePack {
     /// opened, as the original's scenes declare many).
     pub fn load(scene: &Scene, max_pixels: u64) -> Result<TexturePack> {
         let mut pack = TexturePack {
-            material_maps: vec![[layout::MAP_NONE; 4]; scene.materials.len()],
+            material_maps: vec![[contract::MAP_NONE; 4]; scene.materials.len()],
             ..TexturePack::default()
         };
         let mut used = vec![false; scene.materials.len()];
@@ -426,7 +426,7 @@ fn check_mapped_shapes(scene: &Scene, pack: &TexturePack) -> Result<()> {
         let mapped = pack
             .material_maps
             .get(object.material)
-            .is_some_and(|m| m.iter().any(|&i| i != layout::MAP_NONE));
+            .is_some_and(|m| m.iter().any(|&i| i != contract::MAP_NONE));
         if !mapped {
             continue;
         }

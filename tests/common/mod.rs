@@ -90,7 +90,7 @@ impl Probes {
 
 /// The light list of `every_light_scene`, its files under a folder of the test's own (`test`:
 /// tests run in parallel), in the scene's coordinates.
-pub fn every_light_scene_lights(test: &str) -> Vec<clpt::device::layout::Light> {
+pub fn every_light_scene_lights(test: &str) -> Vec<clpt::contract::Light> {
     let dir = std::env::temp_dir().join(format!("clpt-{}-{test}", std::process::id()));
     let scene = every_light_scene(&dir);
     let packed =
@@ -165,7 +165,8 @@ pub fn run(kernel: &ocl::Kernel, n: usize) {
         .expect("probe run");
 }
 
-use clpt::device::layout::{Material, Plane, Sphere};
+use clpt::contract::{Material, Plane, Sphere};
+use clpt::device::kernel::NamedArgs;
 use clpt::device::upload::{PackedScene, SceneBuffers};
 use clpt::scene::CameraDesc;
 use clpt::scene::camera::CameraBasis;
@@ -275,15 +276,12 @@ pub fn probe_scene_rays_with(
         .collect();
     let input = buffer(device, &flat);
     let out = output::<f32>(device, rays.len() * width);
-    let mut builder = ocl::Kernel::builder();
-    builder
-        .program(program)
-        .name(kernel_name)
-        .queue(device.queue.clone());
-    for b in buffers.in_order() {
-        builder.arg(b);
-    }
-    let kernel = builder.arg(&input).arg(&out).build().expect(kernel_name);
+    let kernel = NamedArgs::new(program, kernel_name, &device.queue)
+        .scene(&buffers)
+        .buffer("rays", &input)
+        .buffer("out", &out)
+        .build()
+        .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(
         rays.len() % lanes as usize,
         0,

@@ -7,7 +7,7 @@
 //! the host made of it.
 #![allow(dead_code)]
 
-use clpt::device::layout::{Plane, Sphere};
+use clpt::contract::{Plane, Sphere};
 use clpt::scene::camera::CameraBasis;
 use clpt::scene::{MaterialKind, Scene, Shape};
 use glam::DVec3;
