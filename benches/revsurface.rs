@@ -9,6 +9,7 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
+use clpt::device::kernel::NamedArgs;
 use clpt::device::program::{self, KernelSources};
 use clpt::device::upload::{PackedScene, SceneBuffers};
 use clpt::device::{self, Device};
@@ -160,16 +161,13 @@ fn measure(
         .queue(device.queue.clone())
         .len(rays.len() * 3)
         .build()?;
-    let kernel = ocl::Kernel::builder()
-        .program(program)
-        .name("probe_rev_work")
-        .queue(device.queue.clone())
+    let kernel = NamedArgs::new(program, "probe_rev_work", &device.queue)
         .global_work_size(rays.len())
-        .arg(&buffers.revsurfaces)
-        .arg(&buffers.transforms)
-        .arg(&buffers.rev_points)
-        .arg(&input)
-        .arg(&output)
+        .buffer("revsurfaces", &buffers.revsurfaces)
+        .buffer("transforms", &buffers.transforms)
+        .buffer("rev_points", &buffers.rev_points)
+        .buffer("rays", &input)
+        .buffer("out", &output)
         .build()?;
     let mut best = f64::INFINITY;
     for _ in 0..=REPEATS {

@@ -98,7 +98,7 @@ fn time_kernels() -> ocl::Result<()> {
     for (name, lanes) in KERNELS {
         let kernel = pq
             .kernel_builder(name)
-            .arg(&out)
+            .arg_named("out", &out)
             .global_work_size(ITEMS / lanes)
             .local_work_size(64)
             .build()?;

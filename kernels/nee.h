@@ -24,13 +24,6 @@
 #ifndef CLPT_NEE_H
 #define CLPT_NEE_H
 
-/* The light-list key of a hit: the entry it would have, if listed. */
-inline luint light_kind_of(Hit hit) {
-    return lselect(lselect(lselect((luint)(0xffffffffu), (luint)(OBJECT_MESH), hit.kind == HIT_MESH),
-                           (luint)(OBJECT_PLANE), hit.kind == HIT_PLANE),
-                   (luint)(OBJECT_SPHERE), hit.kind == HIT_SPHERE);
-}
-
 /* Whether light entry l is keyed before (kind, index, triangle). */
 inline bool light_before(__global const Light* l, uint kind, uint index, uint triangle) {
     if (l->kind != kind) {
@@ -44,12 +37,12 @@ inline bool light_before(__global const Light* l, uint kind, uint index, uint tr
 
 /* The light-list triangle of a hit: its triangle on a mesh, 0 elsewhere. */
 inline luint light_triangle_of(Hit hit) {
-    return lselect((luint)(0u), hit.prim, hit.kind == HIT_MESH);
+    return lselect((luint)(0u), hit.prim, hit.kind == OBJECT_MESH);
 }
 
 /* Whether `hit` is on light l. */
 inline lmask light_is_hit(__global const Light* l, Hit hit) {
-    return l->kind == light_kind_of(hit) && l->index == hit.index &&
+    return l->kind == hit.kind && l->index == hit.index &&
            l->triangle == light_triangle_of(hit);
 }
 
@@ -74,7 +67,7 @@ inline int find_light_key(const Scene* sc, uint kind, uint index, uint triangle)
 
 /* The light-list entry of what each lane's `hit` hit, or -1 (lane by lane). */
 inline lint find_light(const Scene* sc, Hit hit) {
-    const luint kind = light_kind_of(hit), triangle = light_triangle_of(hit);
+    const luint kind = hit.kind, triangle = light_triangle_of(hit);
 #if CLPT_WIDE
     lint entry;
     for (uint l = 0u; l < CLPT_LANES; ++l) {
@@ -360,7 +353,7 @@ inline lmask segment_unblocked(const Scene* sc, Surface s, __global const Light*
 #else
     const Hit hit = scene_intersect_until(sc, o, d, t_max);
 #endif
-    return free || hit.kind == HIT_NONE || (!triangle && light_is_hit(l, hit));
+    return free || hit.kind == OBJECT_NONE || (!triangle && light_is_hit(l, hit));
 }
 
 /* The error bound of a point q = c + offset sampled on a sphere light: the offset's few

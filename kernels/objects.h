@@ -35,12 +35,6 @@
 #include "revsurface.h"
 #endif
 
-#define HIT_NONE 0u
-#define HIT_SPHERE 1u
-#define HIT_PLANE 2u
-#define HIT_MESH 3u
-#define HIT_REVSURFACE 4u
-
 /* Every scene buffer, in the order kernels take them: built from types.h's SCENE_BUFFERS, the
  * host's one list (src/contract/buffers.rs), which binds each by its name. */
 #define SCENE_FIELD(T, name) __global const T* name;
@@ -58,7 +52,7 @@ typedef struct Scene {
 /* A hit of each lane (lanes.h). */
 typedef struct Hit {
     lfloat t;
-    luint kind;  /* HIT_* */
+    luint kind;  /* OBJECT_* (types.h) */
     luint index; /* among spheres, planes or mesh instances */
     luint prim;  /* meshes: the triangle; surfaces of revolution: the profile segment */
     lfloat b1, b2; /* meshes: barycentric weights of the triangle's second and third vertex;
@@ -134,7 +128,7 @@ inline void mesh_object_intersect(const Scene* sc, uint index, LFloat3 o, LFloat
             lane_set_uint(&hit->prim, lane, prim);
             lane_set_float(&hit->b1, lane, b1);
             lane_set_float(&hit->b2, lane, b2);
-            lane_set_uint(&hit->kind, lane, HIT_MESH);
+            lane_set_uint(&hit->kind, lane, OBJECT_MESH);
             lane_set_uint(&hit->index, lane, index);
         }
     }
@@ -146,7 +140,7 @@ inline void mesh_object_intersect(const Scene* sc, uint index, float3 o, float3 
     to_mesh_space(sc, inst, &lo, &ld);
     if (mesh_tree_intersect(sc, &sc->meshes[inst->mesh], lo, ld, &hit->t, &hit->prim, &hit->b1,
                             &hit->b2)) {
-        hit->kind = HIT_MESH;
+        hit->kind = OBJECT_MESH;
         hit->index = index;
     }
 }
@@ -188,7 +182,7 @@ inline void sphere_object_intersect(const Scene* sc, uint index, LFloat3 o, LFlo
     lfloat scale;
     to_object_space(sc, s->transform, &o, &d, &scale);
     const lfloat t_max = hit->t * scale;
-    keep_hit(hit, sphere_intersect(s, o, d, t_max), t_max, scale, HIT_SPHERE, index);
+    keep_hit(hit, sphere_intersect(s, o, d, t_max), t_max, scale, OBJECT_SPHERE, index);
 }
 
 #endif
@@ -199,7 +193,7 @@ inline void plane_object_intersect(const Scene* sc, uint index, LFloat3 o, LFloa
     lfloat scale;
     to_object_space(sc, p->transform, &o, &d, &scale);
     const lfloat t_max = hit->t * scale;
-    keep_hit(hit, plane_intersect(p, o, d, t_max), t_max, scale, HIT_PLANE, index);
+    keep_hit(hit, plane_intersect(p, o, d, t_max), t_max, scale, OBJECT_PLANE, index);
 }
 
 #if CLPT_WALLS
@@ -242,7 +236,7 @@ inline void walls_intersect(const Scene* sc, LFloat3 o, LFloat3 d, Hit* hit) {
         const lmask keep =
             nearer && !(fabs(rel.x) > range || fabs(rel.y) > range || fabs(rel.z) > range);
         hit->t = lselect(hit->t, t, keep);
-        hit->kind = lselect(hit->kind, (luint)(HIT_PLANE), keep);
+        hit->kind = lselect(hit->kind, (luint)(OBJECT_PLANE), keep);
         hit->index = lselect(hit->index, lselect((luint)(down), (luint)(up), towards_up), keep);
     }
 }
@@ -259,7 +253,7 @@ inline void rev_object_intersect(const Scene* sc, uint index, float3 o, float3 d
     RevWork work = {0u, 0u};
     float u = 0.0f;
     const float t = revsurface_intersect(r, sc->rev_points, o, d, t_max, &seg, &u, &work);
-    if (keep_hit(hit, t, t_max, scale, HIT_REVSURFACE, index)) {
+    if (keep_hit(hit, t, t_max, scale, OBJECT_REVSURFACE, index)) {
         hit->prim = seg;
         hit->b1 = u;
     }
@@ -340,11 +334,11 @@ inline void object_intersect(const Scene* sc, ObjectRef ref, float3 o, float3 d,
 #include "bvh.h"
 #endif
 
-/* The nearest hit of the ray o + t d with t < t_max, or kind HIT_NONE. */
+/* The nearest hit of the ray o + t d with t < t_max, or kind OBJECT_NONE. */
 inline Hit scene_intersect_until(const Scene* sc, LFloat3 o, LFloat3 d, lfloat t_max) {
     Hit hit;
     hit.t = t_max;
-    hit.kind = hit.index = hit.prim = (luint)(HIT_NONE);
+    hit.kind = hit.index = hit.prim = (luint)(OBJECT_NONE);
     hit.b1 = hit.b2 = (lfloat)(0.0f);
 #if CLPT_BVH
     bvh_intersect(sc, o, d, &hit);
@@ -448,30 +442,30 @@ inline Surface object_surface(const Scene* sc, uint kind, uint index, Hit hit, L
     LFloat3 lo = o, ld = d;
     lfloat t = hit.t;
 #if CLPT_MESHES
-    if (kind == HIT_MESH) {
+    if (kind == OBJECT_MESH) {
         __global const MeshInstance* inst = &sc->mesh_instances[index];
         transform = inst->transform;
         s.material = inst->material;
-        mesh_surface(sc, &sc->meshes[inst->mesh], hit, hit.kind == HIT_MESH && hit.index == index,
+        mesh_surface(sc, &sc->meshes[inst->mesh], hit, hit.kind == OBJECT_MESH && hit.index == index,
                      &s.p, &s.p_error, &s.n, &s.ns);
     } else
 #endif
     {
         transform = TRANSFORM_NONE;
 #if CLPT_SPHERES
-        if (kind == HIT_SPHERE) {
+        if (kind == OBJECT_SPHERE) {
             transform = sc->spheres[index].transform;
             s.material = sc->spheres[index].material;
         }
 #endif
 #if CLPT_PLANES
-        if (kind == HIT_PLANE) {
+        if (kind == OBJECT_PLANE) {
             transform = sc->planes[index].transform;
             s.material = sc->planes[index].material;
         }
 #endif
 #if CLPT_REVSURFACES
-        if (kind == HIT_REVSURFACE) {
+        if (kind == OBJECT_REVSURFACE) {
             transform = sc->revsurfaces[index].transform;
             s.material = sc->revsurfaces[index].material;
         }
@@ -480,17 +474,17 @@ inline Surface object_surface(const Scene* sc, uint kind, uint index, Hit hit, L
         to_object_space(sc, transform, &lo, &ld, &scale);
         t *= scale;
 #if CLPT_SPHERES
-        if (kind == HIT_SPHERE) {
+        if (kind == OBJECT_SPHERE) {
             sphere_surface(&sc->spheres[index], lo, ld, t, &s.p, &s.n, &s.p_error);
         }
 #endif
 #if CLPT_PLANES
-        if (kind == HIT_PLANE) {
+        if (kind == OBJECT_PLANE) {
             plane_surface(&sc->planes[index], lo, ld, t, &s.p, &s.n, &s.p_error);
         }
 #endif
 #if CLPT_REVSURFACES
-        if (kind == HIT_REVSURFACE) {
+        if (kind == OBJECT_REVSURFACE) {
             rev_surface(sc, &sc->revsurfaces[index], hit, lo + t * ld, &s.p, &s.p_error,
                         &s.n);
         }
@@ -520,7 +514,7 @@ inline Surface scene_surface(const Scene* sc, Hit hit, LFloat3 o, LFloat3 d) {
     Surface s;
     s.p = s.p_error = s.n = s.ns = s.p_local = s.n_local = v3_splat((float3)(0.0f));
     s.material = s.transform = (luint)(0u);
-    lmask pending = hit.kind != HIT_NONE;
+    lmask pending = hit.kind != OBJECT_NONE;
     while (lane_any(pending)) {
         const uint lane = lane_first(pending);
         const uint kind = lane_uint(hit.kind, lane), index = lane_uint(hit.index, lane);
@@ -551,19 +545,19 @@ inline float2 scene_mapping(const Scene* sc, Hit hit, Surface s, float3* dpdu, f
     *dpdu = (float3)(1.0f, 0.0f, 0.0f);
     *dpdv = (float3)(0.0f, 1.0f, 0.0f);
 #if CLPT_SPHERES
-    if (hit.kind == HIT_SPHERE) {
+    if (hit.kind == OBJECT_SPHERE) {
         sphere_tangents(s.n_local, dpdu, dpdv);
         uv = sphere_uv(s.n_local);
     }
 #endif
 #if CLPT_PLANES
-    if (hit.kind == HIT_PLANE) {
+    if (hit.kind == OBJECT_PLANE) {
         plane_tangents(&sc->planes[hit.index], dpdu, dpdv);
         uv = plane_uv(&sc->planes[hit.index], s.p_local);
     }
 #endif
 #if CLPT_TRANSFORMS
-    if (s.transform != TRANSFORM_NONE && (hit.kind == HIT_SPHERE || hit.kind == HIT_PLANE)) {
+    if (s.transform != TRANSFORM_NONE && (hit.kind == OBJECT_SPHERE || hit.kind == OBJECT_PLANE)) {
         __global const float* m = sc->transforms[s.transform].m;
         *dpdu = normalize(xform_vector(m, *dpdu));
         *dpdv = normalize(xform_vector(m, *dpdv));

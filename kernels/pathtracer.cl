@@ -169,7 +169,7 @@ inline lmask path_bounce(const Scene* sc, Path* p, lmask active) {
 #else
     const Hit hit = scene_intersect(sc, p->o, d);
 #endif
-    alive = alive && hit.kind != HIT_NONE; /* the background is black */
+    alive = alive && hit.kind != OBJECT_NONE; /* the background is black */
     if (!lane_any(alive)) {
         return alive;
     }

@@ -57,7 +57,7 @@ __kernel void probe_hit(SCENE_KERNEL_ARGS __global const float* rays, __global f
     const uint first = get_global_id(0) * CLPT_LANES;
     LFloat3 o, d, w;
     const Hit hit = probe_first_hit(&scene, rays, first, &o, &d, &w);
-    const lmask none = hit.kind == HIT_NONE;
+    const lmask none = hit.kind == OBJECT_NONE;
     if (lane_all(none)) {
         for (int k = 0; k < 16 * CLPT_LANES; ++k) {
             out[16 * first + k] = k % 16 == 0 ? PROBE_LANE(float, hit.t, k / 16) : 0.0f;
@@ -220,10 +220,10 @@ __kernel void probe_spawn(SCENE_KERNEL_ARGS __global const float* rays, __global
     const Hit hit = probe_first_hit(&scene, rays, i, &o, &d, &wl);
     __global float* r = out + 4 * i;
     r[0] = 0.0f;
-    r[1] = (float)HIT_NONE;
+    r[1] = (float)OBJECT_NONE;
     r[2] = 0.0f;
     r[3] = 0.0f;
-    if (hit.kind == HIT_NONE) {
+    if (hit.kind == OBJECT_NONE) {
         return;
     }
     const Surface s = scene_surface(&scene, hit, o, d);
@@ -235,7 +235,7 @@ __kernel void probe_spawn(SCENE_KERNEL_ARGS __global const float* rays, __global
     const Hit next = scene_intersect(&scene, o2, w);
     r[0] = dot(d, s.n);
     r[1] = (float)next.kind;
-    if (next.kind != HIT_NONE) {
+    if (next.kind != OBJECT_NONE) {
         r[2] = dot(w, scene_surface(&scene, next, o2, w).n);
         r[3] = next.t;
     }
@@ -254,7 +254,7 @@ __kernel void probe_mapping(SCENE_KERNEL_ARGS __global const float* rays,
         r[k] = 0.0f;
     }
     const Hit hit = scene_intersect(&scene, o, d);
-    if (hit.kind == HIT_NONE) {
+    if (hit.kind == OBJECT_NONE) {
         return;
     }
     const Surface s = scene_surface(&scene, hit, o, d);

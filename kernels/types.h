@@ -211,11 +211,14 @@ typedef struct RevSurface {
 } RevSurface;
 CLPT_ASSERT_SIZE(RevSurface, 32);
 
-/* What a BVH leaf holds: an object of some kind, by its index among its kind. */
-#define OBJECT_SPHERE 0u
-#define OBJECT_PLANE 1u
-#define OBJECT_MESH 2u
-#define OBJECT_REVSURFACE 3u
+/* The kinds of object, one list for what a ray hit (Hit.kind, objects.h), what a BVH leaf holds
+ * (ObjectRef) and what a light-list entry is (Light): each names an object by its kind and its
+ * index among its kind. */
+#define OBJECT_NONE 0u
+#define OBJECT_SPHERE 1u
+#define OBJECT_PLANE 2u
+#define OBJECT_MESH 3u
+#define OBJECT_REVSURFACE 4u
 
 /* An object of the object BVH's leaves (bvh.h). */
 typedef struct ObjectRef {
@@ -229,7 +232,7 @@ CLPT_ASSERT_SIZE(ObjectRef, 8);
  * index, triangle), so that a hit finds its entry by binary search, and `cdf` rises along them,
  * so that a uniform number picks an entry with probability `prob`. */
 typedef struct Light {
-    uint kind;             /* OBJECT_SPHERE, OBJECT_PLANE or OBJECT_MESH, as the hit is */
+    uint kind;             /* OBJECT_SPHERE, OBJECT_PLANE or OBJECT_MESH, as a hit on it is */
     uint index;            /* the sphere, plane or mesh instance */
     uint triangle;         /* a mesh's triangle (Hit.prim); 0 for spheres and planes */
     uint material;         /* of constant emission */

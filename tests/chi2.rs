@@ -24,6 +24,7 @@ mod common;
 use common::Probes;
 
 use clpt::contract::{Light, OBJECT_MESH, OBJECT_PLANE, OBJECT_SPHERE};
+use clpt::device::kernel::NamedArgs;
 use common::chi2;
 use glam::DVec3;
 use rand::rngs::SmallRng;
@@ -129,10 +130,10 @@ struct Sample {
 
 impl Probes {
     /// Runs probe `name` on light (as the light list's only entry) for `items` samples of
-    /// `input`, each writing `width` floats.
+    /// `input` (the kernel's parameter `input_name`), each writing `width` floats.
     fn kernel(
         &self,
-        name: &str,
+        (name, input_name): (&str, &'static str),
         light: &Light,
         input: &[f32],
         items: usize,
@@ -150,13 +151,10 @@ impl Probes {
         let lb = common::buffer(&self.device, bytemuck::bytes_of(light));
         let ib = common::buffer(&self.device, &input);
         let out = common::output::<f32>(&self.device, padded_items * width);
-        let kernel = ocl::Kernel::builder()
-            .program(&self.program)
-            .name(name)
-            .queue(self.device.queue.clone())
-            .arg(&lb)
-            .arg(&ib)
-            .arg(&out)
+        let kernel = NamedArgs::new(&self.program, name, &self.device.queue)
+            .buffer("lights", &lb)
+            .buffer(input_name, &ib)
+            .buffer("out", &out)
             .build()
             .unwrap();
         common::run(&kernel, padded_items / lanes);
@@ -172,7 +170,7 @@ impl Probes {
             .iter()
             .flat_map(|u| [p[0], p[1], p[2], u[0], u[1]])
             .collect();
-        self.kernel("probe_light_sample", light, &input, u.len(), 12)
+        self.kernel(("probe_light_sample", "p_u"), light, &input, u.len(), 12)
             .chunks_exact(12)
             .map(|c| {
                 let v = |i: usize| DVec3::new(c[i].into(), c[i + 1].into(), c[i + 2].into());
@@ -198,7 +196,7 @@ impl Probes {
                 [p.x, p.y, p.z, w.x, w.y, w.z, t as f32]
             })
             .collect();
-        self.kernel("probe_light_pdf", light, &input, ws.len(), 1)
+        self.kernel(("probe_light_pdf", "p_d_t"), light, &input, ws.len(), 1)
             .iter()
             .map(|&pdf| pdf.into())
             .collect()

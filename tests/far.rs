@@ -241,7 +241,7 @@ fn silhouette(device: &clpt::device::Device, scene: &Scene) -> Vec<bool> {
     }
     common::probe_hits(device, &packed, &rays)
         .iter()
-        .map(|h| h[1] == 4.0)
+        .map(|h| h[1] == clpt::contract::OBJECT_REVSURFACE as f32)
         .collect()
 }
 

@@ -5,7 +5,8 @@
 
 mod common;
 
-use clpt::contract::{Plane, Sphere};
+use clpt::contract::{OBJECT_NONE, OBJECT_PLANE, OBJECT_SPHERE, Plane, Sphere};
+use clpt::device::kernel::NamedArgs;
 use common::reference::{self, v3};
 use glam::DVec3;
 use rand::rngs::SmallRng;
@@ -149,7 +150,7 @@ fn sphere_hits_match_f64_and_spawned_rays_never_self_hit() {
                 let grazing = (perp2.sqrt() - r).abs() <= 1e-3 * r + 8.0 * EPS * (f.length() + r);
                 let on_surface = (f.length() - r).abs() <= 8.0 * EPS * (c.abs().max_element() + r);
                 let want = reference::sphere_hit(s, o, d, f64::INFINITY);
-                let got_t = (got[1] == 1.0).then_some(got[0] as f64);
+                let got_t = (got[1] == OBJECT_SPHERE as f32).then_some(got[0] as f64);
                 if !grazing && !on_surface {
                     assert_eq!(
                         want.is_some(),
@@ -197,14 +198,14 @@ fn sphere_hits_match_f64_and_spawned_rays_never_self_hit() {
                 let cos = w.dot(n_true);
                 if cos > 0.0 {
                     assert_eq!(
-                        got[13], 0.0,
+                        got[13], OBJECT_NONE as f32,
                         "{}: outward ray from {p} re-hit (t={})",
                         name, got[12]
                     );
                 } else if cos < -1e-3 {
                     let chord = 2.0 * r * -cos;
                     assert_eq!(
-                        got[13], 1.0,
+                        got[13], OBJECT_SPHERE as f32,
                         "{}: inward ray from {p} missed the far side",
                         name
                     );
@@ -275,7 +276,7 @@ fn plane_hits_match_f64_and_spawned_rays_never_self_hit() {
             for (input, got) in rays.iter().zip(&out) {
                 let (o, d, w) = parts(input);
                 let want = reference::plane_hit(&scene.planes[0], o, d, f64::INFINITY);
-                let got_t = (got[1] == 2.0).then_some(got[0] as f64);
+                let got_t = (got[1] == OBJECT_PLANE as f32).then_some(got[0] as f64);
                 let denom = n.dot(d);
                 let scale = offset.abs() as f64 + o.abs().max_element();
                 // Hits within rounding of the range's edge may go either way.
@@ -309,7 +310,7 @@ fn plane_hits_match_f64_and_spawned_rays_never_self_hit() {
                 );
                 // One-sided: a spawned ray never meets the plane it leaves, on either side.
                 assert_eq!(
-                    got[13], 0.0,
+                    got[13], OBJECT_NONE as f32,
                     "{name}: ray spawned from {p} towards {w} re-hit the plane"
                 );
             }
@@ -413,7 +414,8 @@ fn walls_and_other_planes_give_the_nearest_plane() {
                 continue;
             }
             let want = hits.first().copied();
-            let got_hit = (got[1] == 2.0).then_some((got[0] as f64, got[2] as usize));
+            let got_hit =
+                (got[1] == OBJECT_PLANE as f32).then_some((got[0] as f64, got[2] as usize));
             match (want, got_hit) {
                 (None, None) => {}
                 (Some((t64, i64)), Some((t32, i32))) => {
@@ -475,14 +477,11 @@ fn camera_rays_match_f64() {
         );
         let out = common::output::<f32>(&device, n * 6);
         let program = common::probes(&device);
-        let kernel = ocl::Kernel::builder()
-            .program(&program)
-            .name("probe_camera")
-            .queue(device.queue.clone())
-            .arg(&buffers.params)
-            .arg(&pb)
-            .arg(&ub)
-            .arg(&out)
+        let kernel = NamedArgs::new(&program, "probe_camera", &device.queue)
+            .buffer("params", &buffers.params)
+            .buffer("pixel", &pb)
+            .buffer("u", &ub)
+            .buffer("out", &out)
             .build()
             .unwrap();
         common::run(&kernel, n);

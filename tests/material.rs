@@ -21,6 +21,7 @@ mod common;
 use common::Probes;
 
 use clpt::contract::{MATERIAL_DIFFUSE, MATERIAL_REFRACTIVE, MATERIAL_SPECULAR};
+use clpt::device::kernel::NamedArgs;
 use common::chi2;
 use glam::DVec3;
 use ocl::prm::Float4;
@@ -77,14 +78,11 @@ impl Probes {
             common::buffer(&self.device, &u),
         );
         let out = common::output::<f32>(&self.device, queries.len() * 16);
-        let kernel = ocl::Kernel::builder()
-            .program(&self.program)
-            .name("probe_bsdf")
-            .queue(self.device.queue.clone())
-            .arg(&kb)
-            .arg(&fb)
-            .arg(&ub)
-            .arg(&out)
+        let kernel = NamedArgs::new(&self.program, "probe_bsdf", &self.device.queue)
+            .buffer("type", &kb)
+            .buffer("frames", &fb)
+            .buffer("u", &ub)
+            .buffer("out", &out)
             .build()
             .unwrap();
         common::run(&kernel, queries.len() / self.lanes as usize);

@@ -6,6 +6,7 @@
 
 mod common;
 
+use clpt::contract::{OBJECT_MESH, OBJECT_PLANE, OBJECT_SPHERE};
 use clpt::device::upload::PackedScene;
 use clpt::scene::Scene;
 use clpt::scene::mesh::{self, TriangleMesh};
@@ -15,7 +16,8 @@ use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
 use std::path::{Path, PathBuf};
 
-const HIT_MESH: f32 = 3.0;
+/// What the hit probe records for a mesh hit (kind, as a float).
+const HIT_MESH: f32 = OBJECT_MESH as f32;
 
 fn temp_dir(test: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("clpt-mesh-{}-{test}", std::process::id()));
@@ -457,9 +459,9 @@ fn transformed_spheres_planes_and_meshes_match_f64() {
         let m = compose(&ops);
         let inv = m.inverse();
         for (object, kind) in [
-            ("Sphere { center 0.3 0.1 -0.2 radius 1 }", 1.0f32),
-            ("Plane { normal 0 0 1 offset 0.25 range 2 }", 2.0),
-            ("Mesh { obj_file ico.obj }", 3.0),
+            ("Sphere { center 0.3 0.1 -0.2 radius 1 }", OBJECT_SPHERE),
+            ("Plane { normal 0 0 1 offset 0.25 range 2 }", OBJECT_PLANE),
+            ("Mesh { obj_file ico.obj }", OBJECT_MESH),
         ] {
             let scene = scene_in(&dir, &format!("Transform {{ {} {object} }}", op_text(&ops)));
             let packed = pack(&scene);
@@ -479,16 +481,15 @@ fn transformed_spheres_planes_and_meshes_match_f64() {
                 let (o, d) = parts(r);
                 let (lo, ld) = (inv.transform_point3(o), inv.transform_vector3(d));
                 // The reference in object space: t is the same along both rays.
-                let want: Option<(f64, DVec3)> = match kind as u32 {
-                    1 => common::reference::sphere_roots(&sphere, lo, ld.normalize()).and_then(
-                        |(t0, t1)| {
+                let want: Option<(f64, DVec3)> = match kind {
+                    OBJECT_SPHERE => common::reference::sphere_roots(&sphere, lo, ld.normalize())
+                        .and_then(|(t0, t1)| {
                             let len = ld.length();
                             [t0, t1].into_iter().find(|&t| t > 0.0).map(|t| {
                                 (t / len, lo + ld * (t / len) - DVec3::new(0.3, 0.1, -0.2))
                             })
-                        },
-                    ),
-                    2 => {
+                        }),
+                    OBJECT_PLANE => {
                         // Normal +z (the default), its box centred on n * offset as the
                         // scene's is.
                         let plane = clpt::contract::Plane {
@@ -510,7 +511,7 @@ fn transformed_spheres_planes_and_meshes_match_f64() {
                         (t, (b - a).cross(cc - a))
                     }),
                 };
-                let device_hit = (g[1] == kind).then(|| g[0] as f64);
+                let device_hit = (g[1] == kind as f32).then(|| g[0] as f64);
                 let Some((t, n_obj)) = want else {
                     // Rays that just miss may graze: only a clear device hit far inside is wrong.
                     continue;
@@ -518,15 +519,15 @@ fn transformed_spheres_planes_and_meshes_match_f64() {
                 let Some(tg) = device_hit else {
                     // A device miss next to an f64 hit: only at a silhouette.
                     let p = inv.transform_point3(o + d * t);
-                    let grazing = match kind as u32 {
-                        1 => {
+                    let grazing = match kind {
+                        OBJECT_SPHERE => {
                             ((p - DVec3::new(0.3, 0.1, -0.2))
                                 .normalize()
                                 .dot(ld.normalize()))
                             .abs()
                                 < 1e-2
                         }
-                        2 => {
+                        OBJECT_PLANE => {
                             (p.x.abs().max(p.y.abs()) - 2.0).abs() < 1e-3
                                 || ld.normalize().z.abs() < 1e-3
                         }
@@ -553,7 +554,7 @@ fn transformed_spheres_planes_and_meshes_match_f64() {
                 );
                 let n_world = inv.transpose().transform_vector3(n_obj).normalize();
                 let n = DVec3::new(g[6] as f64, g[7] as f64, g[8] as f64);
-                if kind as u32 != 3 {
+                if kind != OBJECT_MESH {
                     assert!(
                         (n - n_world).length() < 1e-3,
                         "{} {object}: normal {n} vs {n_world}",
@@ -568,7 +569,7 @@ fn transformed_spheres_planes_and_meshes_match_f64() {
                 }
             }
             // A one-sided plane is hit by the rays from its front only.
-            let enough = if kind == 2.0 { 100 } else { 500 };
+            let enough = if kind == OBJECT_PLANE { 100 } else { 500 };
             assert!(
                 hits > enough,
                 "{} {object}: only {hits} hits",
@@ -765,7 +766,7 @@ fn rays_from_outside_never_reach_the_inside_of_the_trefoil() {
             hits += 1;
             // The tube's triangles wind inwards: a ray from outside meets dot(d, n) > 0.
             inner_first += u64::from(r[0] < 0.0);
-            if r[1] as u32 == 3 {
+            if r[1] == HIT_MESH {
                 spawned_on_knot += 1;
                 inside += u64::from(r[2] < 0.0);
             }

@@ -11,6 +11,7 @@
 
 mod common;
 
+use clpt::device::kernel::NamedArgs;
 use clpt::device::program::KernelSources;
 use clpt::device::upload::PackedScene;
 use clpt::render::{RenderOptions, Renderer};
@@ -20,7 +21,8 @@ use glam::{DVec2, DVec3};
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
 
-const HIT_REVSURFACE: f32 = 4.0;
+/// What the hit probe records for a surface of revolution (kind, as a float).
+const HIT_REVSURFACE: f32 = clpt::contract::OBJECT_REVSURFACE as f32;
 
 fn profiles() -> Vec<(&'static str, Curve)> {
     let pts = |p: &[[f64; 2]]| p.iter().map(|&[x, y]| DVec2::new(x, y)).collect::<Vec<_>>();
@@ -320,14 +322,11 @@ fn device_bezier_eval_matches_the_f64_curves() {
             common::buffer(&device, &u),
         );
         let out = common::output::<f32>(&device, queries.len() * 4);
-        let kernel = ocl::Kernel::builder()
-            .program(&program)
-            .name("probe_bezier")
-            .queue(device.queue.clone())
-            .arg(&points_buf)
-            .arg(&seg_buf)
-            .arg(&u_buf)
-            .arg(&out)
+        let kernel = NamedArgs::new(&program, "probe_bezier", &device.queue)
+            .buffer("points", &points_buf)
+            .buffer("segment", &seg_buf)
+            .buffer("u", &u_buf)
+            .buffer("out", &out)
             .build()
             .unwrap();
         common::run(&kernel, queries.len());

@@ -9,6 +9,7 @@
 mod common;
 
 use clpt::device::Device;
+use clpt::device::kernel::NamedArgs;
 use ocl::prm::{Float4, Uint2, Uint4};
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
@@ -49,13 +50,10 @@ fn philox_known_answers() {
     let ctr = common::buffer(&device, &ctr);
     let key = common::buffer(&device, &key);
     let out = common::output::<Uint4>(&device, cases.len());
-    let kernel = ocl::Kernel::builder()
-        .program(&program)
-        .name("probe_philox")
-        .queue(device.queue.clone())
-        .arg(&ctr)
-        .arg(&key)
-        .arg(&out)
+    let kernel = NamedArgs::new(&program, "probe_philox", &device.queue)
+        .buffer("ctr", &ctr)
+        .buffer("key", &key)
+        .buffer("out", &out)
         .build()
         .unwrap();
     common::run(&kernel, cases.len());
@@ -70,30 +68,31 @@ fn philox_known_answers() {
 }
 
 /// Runs the probe `name` of the program of `lanes` lanes (arguments: the seed's two words, then
-/// `args`, then the output) for `items` samples or pixels (`items / lanes` work-items) that write
+/// `args` by name, then the output) for `items` samples or pixels (`items / lanes` work-items) that write
 /// `dims` blocks of four numbers each.
 fn rng_probe(
     name: &str,
     lanes: u32,
     seed: u64,
-    args: &[u32],
+    args: &[(&'static str, u32)],
     items: usize,
     dims: u32,
 ) -> Vec<[f32; 4]> {
     let device = common::device();
     let program = rng_probes(&device, lanes);
     let out = common::output::<Float4>(&device, items * dims as usize);
-    let mut builder = ocl::Kernel::builder();
-    builder
-        .program(&program)
-        .name(name)
-        .queue(device.queue.clone())
-        .arg(seed as u32)
-        .arg((seed >> 32) as u32);
-    for &a in args {
-        builder.arg(a);
+    let mut kernel = NamedArgs::new(&program, name, &device.queue);
+    kernel
+        .scalar("seed_lo", seed as u32)
+        .scalar("seed_hi", (seed >> 32) as u32);
+    for &(arg, value) in args {
+        kernel.scalar(arg, value);
     }
-    let kernel = builder.arg(dims).arg(&out).build().unwrap();
+    let kernel = kernel
+        .scalar("dims", dims)
+        .buffer("out", &out)
+        .build()
+        .unwrap();
     assert_eq!(items % lanes as usize, 0);
     common::run(&kernel, items / lanes as usize);
     common::read(&out)
@@ -105,12 +104,26 @@ fn rng_probe(
 /// `dims` blocks (4 numbers each) for `pixels` pixels of one sample index: the camera's and
 /// the BSDF's (rng_next4).
 fn stream(seed: u64, sample: u32, pixels: usize, dims: u32) -> Vec<[f32; 4]> {
-    rng_probe("probe_rng_stream", 1, seed, &[sample, 0], pixels, dims)
+    rng_probe(
+        "probe_rng_stream",
+        1,
+        seed,
+        &[("sample", sample), ("light", 0)],
+        pixels,
+        dims,
+    )
 }
 
 /// As [`stream`], the light samples' blocks of the first `vertices` vertices (rng_light4).
 fn light_stream(seed: u64, sample: u32, pixels: usize, vertices: u32) -> Vec<[f32; 4]> {
-    rng_probe("probe_rng_stream", 1, seed, &[sample, 1], pixels, vertices)
+    rng_probe(
+        "probe_rng_stream",
+        1,
+        seed,
+        &[("sample", sample), ("light", 1)],
+        pixels,
+        vertices,
+    )
 }
 
 /// Pearson's chi-square statistic of `counts` against a uniform expectation.
@@ -285,12 +298,9 @@ fn sobol_points_follow_the_joe_kuo_direction_numbers() {
     let program = rng_probes(&device, 1);
     let input = common::buffer(&device, &index);
     let out = common::output::<Uint4>(&device, index.len());
-    let kernel = ocl::Kernel::builder()
-        .program(&program)
-        .name("probe_sobol")
-        .queue(device.queue.clone())
-        .arg(&input)
-        .arg(&out)
+    let kernel = NamedArgs::new(&program, "probe_sobol", &device.queue)
+        .buffer("index", &input)
+        .buffer("out", &out)
         .build()
         .unwrap();
     common::run(&kernel, index.len());
@@ -327,7 +337,11 @@ fn samples_in_lanes(
     count: usize,
     dims: u32,
 ) -> Vec<[f32; 4]> {
-    let args = [pixel, start, u32::from(light)];
+    let args = [
+        ("pixel", pixel),
+        ("sample_start", start),
+        ("light", u32::from(light)),
+    ];
     rng_probe("probe_rng_samples", lanes, seed, &args, count, dims)
 }
 

@@ -9,6 +9,7 @@
 mod common;
 
 use clpt::contract::{self, FILTER_BILINEAR, FILTER_NEAREST};
+use clpt::device::kernel::NamedArgs;
 use clpt::device::program::KernelSources;
 use clpt::device::upload::{PackedScene, SceneBuffers};
 use clpt::render::{RenderOptions, Renderer, TextureFilter};
@@ -444,15 +445,12 @@ fn lookups_match_f64_at_random_points_and_texel_borders() {
                 common::buffer(&device, &uv),
             );
             let out = common::output::<Float4>(&device, uvs.len());
-            let kernel = ocl::Kernel::builder()
-                .program(&program)
-                .name("probe_texture")
-                .queue(device.queue.clone())
-                .arg(&buffers.maps)
-                .arg(&buffers.texels)
-                .arg(&ib)
-                .arg(&ub)
-                .arg(&out)
+            let kernel = NamedArgs::new(&program, "probe_texture", &device.queue)
+                .buffer("maps", &buffers.maps)
+                .buffer("texels", &buffers.texels)
+                .buffer("index_filter", &ib)
+                .buffer("uv", &ub)
+                .buffer("out", &out)
                 .build()
                 .unwrap();
             common::run(&kernel, uvs.len());
@@ -545,7 +543,7 @@ fn plane_and_sphere_mapping_match_f64() {
         let out = common::probe_scene_rays(&device, &scene, "probe_mapping", &rays, 8);
         let hits = common::probe_hits(&device, &scene, &rays);
         for ((r, got), hit) in rays.iter().zip(out.chunks_exact(8)).zip(&hits) {
-            assert!(hit[1] != 0.0, "ray missed");
+            assert!(hit[1] != clpt::contract::OBJECT_NONE as f32, "ray missed");
             let p = DVec3::new(hit[3] as f64, hit[4] as f64, hit[5] as f64);
             let (uv, dpdu, dpdv, pole) = if scene.planes.is_empty() {
                 let n = (p - center).normalize();
@@ -625,13 +623,10 @@ fn bump_formula_matches_f64() {
     );
     let out = common::output::<f32>(&device, count * 3);
     let program = common::probes(&device);
-    let kernel = ocl::Kernel::builder()
-        .program(&program)
-        .name("probe_bump")
-        .queue(device.queue.clone())
-        .arg(&fb)
-        .arg(&gb)
-        .arg(&out)
+    let kernel = NamedArgs::new(&program, "probe_bump", &device.queue)
+        .buffer("frames", &fb)
+        .buffer("g", &gb)
+        .buffer("out", &out)
         .build()
         .unwrap();
     common::run(&kernel, count);

@@ -208,11 +208,14 @@ shared! {
         pub y_hi: f32,
     }
 
-    /// What a BVH leaf holds: an object of some kind, by its index among its kind.
-    pub const OBJECT_SPHERE: u32 = 0;
-    pub const OBJECT_PLANE: u32 = 1;
-    pub const OBJECT_MESH: u32 = 2;
-    pub const OBJECT_REVSURFACE: u32 = 3;
+    /// The kinds of object, one list for what a ray hit (Hit.kind, objects.h), what a BVH leaf
+    /// holds (ObjectRef) and what a light-list entry is (Light): each names an object by its
+    /// kind and its index among its kind.
+    pub const OBJECT_NONE: u32 = 0;
+    pub const OBJECT_SPHERE: u32 = 1;
+    pub const OBJECT_PLANE: u32 = 2;
+    pub const OBJECT_MESH: u32 = 3;
+    pub const OBJECT_REVSURFACE: u32 = 4;
 
     /// An object of the object BVH's leaves (bvh.h).
     pub struct ObjectRef {
@@ -226,7 +229,7 @@ shared! {
     /// (kind, index, triangle), so that a hit finds its entry by binary search, and `cdf` rises
     /// along them, so that a uniform number picks an entry with probability `prob`.
     pub struct Light {
-        /// OBJECT_SPHERE, OBJECT_PLANE or OBJECT_MESH, as the hit is
+        /// OBJECT_SPHERE, OBJECT_PLANE or OBJECT_MESH, as a hit on it is
         pub kind: u32,
         /// the sphere, plane or mesh instance
         pub index: u32,
