@@ -11,8 +11,9 @@ mod common;
 
 use clpt::device::kernel::NamedArgs;
 use clpt::device::program::{self, KernelSources};
-use clpt::device::upload::{PackedScene, SceneBuffers};
+use clpt::device::upload::SceneBuffers;
 use clpt::device::{self, Device};
+use clpt::pack::PackedScene;
 use clpt::scene::{Scene, Shape};
 use glam::{DVec3, Vec3};
 use rand::rngs::SmallRng;

@@ -8,6 +8,8 @@
 #ifndef CLPT_AABB_H
 #define CLPT_AABB_H
 
+#include "vecmath.h"
+
 /* Clips [*t0, *t1] to the part of o + t d inside [lo, hi]; false if nothing is left. */
 inline bool aabb_clip(float3 lo, float3 hi, float3 o, float3 inv_d, float* t0, float* t1) {
     const float3 a = (lo - o) * inv_d;

@@ -10,6 +10,7 @@
 #define CLPT_BVH_H
 
 #include "aabb.h"
+#include "shapes.h"
 
 #define BVH_STACK 64
 

@@ -17,6 +17,9 @@
 #ifndef CLPT_CAMERA_H
 #define CLPT_CAMERA_H
 
+#include "types.h"
+#include "vecmath.h"
+
 /* smallpt's tent filter: maps u in [0,1) to [-1, 1) with a triangular density. */
 inline lfloat tent(lfloat u) {
     const lfloat r = 2.0f * u;

@@ -11,6 +11,8 @@
 #define CLPT_KDTREE_H
 
 #include "aabb.h"
+#include "triangle.h"
+#include "types.h"
 
 #define KD_STACK 64
 
@@ -18,25 +20,6 @@ typedef struct KdTodo {
     uint node;
     float t0, t1;
 } KdTodo;
-
-inline float3 mesh_vertex(__global const float* vertices, uint i) {
-    return vload3(i, vertices);
-}
-
-/* Updates *t, *prim, *b1, *b2 where the ray meets triangle `tri` (vertices a, b, c) in
- * (0, *t); whether it does. Both trees' leaves (this file's and wide_bvh.h's) test through it. */
-inline bool leaf_triangle(const WatertightRay* ray, float3 a, float3 b, float3 c, uint tri,
-                          float* t, uint* prim, float* b1, float* b2) {
-    float th, u1, u2;
-    if (!triangle_intersect(ray, a, b, c, *t, &th, &u1, &u2)) {
-        return false;
-    }
-    *t = th;
-    *prim = tri;
-    *b1 = u1;
-    *b2 = u2;
-    return true;
-}
 
 /* Updates *t, *prim, *b1, *b2 with the nearest hit in (0, *t) of the ray with the `count`
  * triangles of mesh m numbered in `list` (a leaf of its tree); whether there was one. */

@@ -22,6 +22,7 @@
 #define CLPT_MATERIAL_H
 
 #include "vecmath.h"
+#include "types.h"
 
 #define GLASS_IOR 1.5f
 

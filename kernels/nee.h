@@ -2,7 +2,7 @@
  * section 13.4).
  *
  * Reads: the light list (types.h `Light` entries the host chose and placed in world space,
- * src/device/lights.rs: spheres, squares of planes and mesh triangles of constant
+ * src/pack/lights.rs: spheres, squares of planes and mesh triangles of constant
  * emission) and their materials. Writes: nothing. Why: a small bright light is found by BSDF
  * sampling only rarely, so pure path tracing converges slowly on it (the original's report says
  * so of its light balls). At every vertex whose material is not a delta lobe, one light is
@@ -23,6 +23,10 @@
  */
 #ifndef CLPT_NEE_H
 #define CLPT_NEE_H
+
+#include "types.h"
+#include "objects.h"
+#include "material.h"
 
 /* Whether light entry l is keyed before (kind, index, triangle). */
 inline bool light_before(__global const Light* l, uint kind, uint index, uint triangle) {
@@ -126,7 +130,7 @@ inline lfloat cone_one_minus_cos(float r2, lfloat d2) {
  * estimate with BSDF sampling), and the render's relMSE at equal samples about halves.
  *
  * Which rectangles: those the host marks (Light.solid_angle), the emitting walls of a closed
- * room (src/device/lights.rs), whose shading points come right up to them. The mapping costs a
+ * room (src/pack/lights.rs), whose shading points come right up to them. The mapping costs a
  * few hundred instructions a sample, and on a GPU a warp runs them whenever one of its lanes
  * picks such a light: lights.txt's panel, hung in its room at 0.2 sr from most points, took
  * 15 to 23% more time by solid angle for 0.4% less relMSE (H200), so lights other than walls
@@ -234,7 +238,7 @@ inline lfloat light_cosine(__global const Light* l, LFloat3 d) {
  * density is the same at every direction of its cone. */
 inline lfloat light_pdf(__global const Light* l, LFloat3 p, LFloat3 d, lfloat t) {
     if (l->kind == OBJECT_SPHERE && l->cap_height > 0.0f) {
-        /* Uniform over the visible cap's area (src/device/lights.rs `visible_cap`); 0 off it,
+        /* Uniform over the visible cap's area (src/pack/lights.rs `visible_cap`); 0 off it,
          * where light sampling never lands. */
         const float3 c = vload3(0, l->corner);
         const LFloat3 n = v3_div(v3_sub(v3_add(p, v3_scale(t, d)), v3_splat(c)), l->radius);
@@ -376,7 +380,7 @@ inline lmask light_sample(__global const Light* l, LFloat3 p, lfloat ux, lfloat 
                           lmask* uniform) {
     *uniform = !LANE_TRUE;
     if (l->kind == OBJECT_SPHERE && l->cap_height > 0.0f) {
-        /* The visible cap (src/device/lights.rs `visible_cap`), uniformly by area: a sphere's
+        /* The visible cap (src/pack/lights.rs `visible_cap`), uniformly by area: a sphere's
          * area is uniform in height along any axis (Archimedes), so the depth below the cap's
          * top is cap_height u.x. */
         const float3 c = vload3(0, l->corner), axis = vload3(0, l->normal);

@@ -9,6 +9,10 @@
 #ifndef CLPT_PLANE_H
 #define CLPT_PLANE_H
 
+#include "types.h"
+#include "vecmath.h"
+#include "ray.h"
+
 inline lfloat plane_intersect(__global const Plane* pl, LFloat3 o, LFloat3 d, lfloat t_max) {
     const float3 n = vload3(0, pl->normal);
     const lfloat denom = v3_dot(v3_splat(n), d);

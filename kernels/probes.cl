@@ -285,7 +285,7 @@ __kernel void probe_bump(__global const float* frames, __global const float2* g,
 
 /* Surfaces of revolution alone, for benchmarks: rays (o, d; 6 floats) in device coordinates,
  * taken into the space revolved surface 0 is stored in by its transform (the host centres its
- * profile and moves it to the camera's origin, src/device/upload.rs); output t in that space
+ * profile and moves it to the camera's origin, src/pack/mod.rs); output t in that space
  * (t_max = INFINITY when none), solver iterations and sub-segments visited. */
 __kernel void probe_rev_work(__global const RevSurface* revsurfaces,
                              __global const Transform* transforms,

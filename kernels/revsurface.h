@@ -32,7 +32,7 @@
  * terms involved, and the hit's error bound (rev_surface in objects.h) covers the widest. The
  * terms are the sizes of the profile's coordinates and of the ray's origin, so both are kept
  * to the surface's own size: the host stores the profile with its heights centred on 0 (its
- * shift in the transform, src/device/upload.rs), leaving the largest |y| half the profile's
+ * shift in the transform, src/pack/mod.rs), leaving the largest |y| half the profile's
  * height and the largest |x| its radius, and revsurface_intersect starts the ray where it
  * enters the surface's box. The guarantees above then hold relative to the box: no root is
  * lost or invented by more than about 1e-5 of the profile's extent wherever the surface and
@@ -43,6 +43,8 @@
 #define CLPT_REVSURFACE_H
 
 #include "aabb.h"
+#include "types.h"
+#include "vecmath.h"
 
 #define REV_MAX_DEGREE 7
 /* CLPT_REV_DEGREE > 0 says that every revolved surface of the scene has that degree: loops

@@ -14,6 +14,10 @@
 #ifndef CLPT_SPHERE_H
 #define CLPT_SPHERE_H
 
+#include "types.h"
+#include "vecmath.h"
+#include "ray.h"
+
 /* The nearest t in (0, t_max) where o + t d (d unit) meets the sphere, or t_max if none. */
 inline lfloat sphere_intersect(__global const Sphere* s, LFloat3 o, LFloat3 d, lfloat t_max) {
     const float3 center = vload3(0, s->center);

@@ -10,6 +10,9 @@
 #ifndef CLPT_TEXTURE_H
 #define CLPT_TEXTURE_H
 
+#include "types.h"
+#include "vecmath.h"
+
 inline uint wrap_texel(int i, uint n) {
     const int r = i % (int)n;
     return (uint)(r < 0 ? r + (int)n : r);

@@ -9,6 +9,10 @@
 #ifndef CLPT_TRANSFORM_H
 #define CLPT_TRANSFORM_H
 
+#include "types.h"
+#include "vecmath.h"
+#include "ray.h"
+
 /* Written on lane vectors (vecmath.h): the matrix is the object's, the same in every lane. At
  * width 1 make_lfloat3 is the (float3) literal and each v3_ operation the float3 expression. */
 inline LFloat3 xform_point(__global const float* m, LFloat3 p) {

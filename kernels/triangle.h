@@ -77,4 +77,24 @@ inline bool triangle_intersect(const WatertightRay* r, float3 v0, float3 v1, flo
 }
 #pragma OPENCL FP_CONTRACT ON
 
+/* Vertex i of the scene's vertex array. */
+inline float3 mesh_vertex(__global const float* vertices, uint i) {
+    return vload3(i, vertices);
+}
+
+/* Updates *t, *prim, *b1, *b2 where the ray meets triangle `tri` (vertices a, b, c) in
+ * (0, *t); whether it does. Both trees' leaves (kdtree.h's and wide_bvh.h's) test through it. */
+inline bool leaf_triangle(const WatertightRay* ray, float3 a, float3 b, float3 c, uint tri,
+                          float* t, uint* prim, float* b1, float* b2) {
+    float th, u1, u2;
+    if (!triangle_intersect(ray, a, b, c, *t, &th, &u1, &u2)) {
+        return false;
+    }
+    *t = th;
+    *prim = tri;
+    *b1 = u1;
+    *b2 = u2;
+    return true;
+}
+
 #endif

@@ -64,7 +64,7 @@ CLPT_ASSERT_SIZE(KdNode, 8);
 
 /* The words of a leaf's triangle slot, which a wide BVH's first index counts in (in the
  * kd_indices buffer): the triangle's three vertices' numbers in the scene's vertex array and its
- * number in its mesh (src/device/upload.rs, wide_bvh.h). */
+ * number in its mesh (src/pack/mod.rs, wide_bvh.h). */
 #define WIDE_BVH_SLOT 4u
 
 /* A node of a mesh's 8-wide BVH (src/accel/wide_bvh.rs, wide_bvh.h), a CPU's mesh tree: the
@@ -159,7 +159,7 @@ CLPT_ASSERT_SIZE(Sphere, 40);
 /* A one-sided plane n.p = offset (plane.cuh), visible from the side n points to, limited to the
  * points p with |p - center| <= range in every coordinate (the original's bounding box, centred
  * on n*offset in the scene's own coordinates; the host moves both with the camera-relative
- * origin, src/device/upload.rs). centerp, dir_u, dir_v map texture coordinates (texture issue). */
+ * origin, src/pack/mod.rs). centerp, dir_u, dir_v map texture coordinates (texture issue). */
 typedef struct Plane {
     float normal[3];       /* unit */
     float offset;
@@ -228,9 +228,9 @@ typedef struct ObjectRef {
 CLPT_ASSERT_SIZE(ObjectRef, 8);
 
 /* An emitter of the light list that next-event estimation samples (nee.h), in world space (the
- * host applied its object's transform: src/device/lights.rs). Entries are sorted by (kind,
- * index, triangle), so that a hit finds its entry by binary search, and `cdf` rises along them,
- * so that a uniform number picks an entry with probability `prob`. */
+ * host applied its object's transform: src/pack/lights.rs). Entries are sorted by (kind, index,
+ * triangle), so that a hit finds its entry by binary search, and `cdf` rises along them, so that
+ * a uniform number picks an entry with probability `prob`. */
 typedef struct Light {
     uint kind;             /* OBJECT_SPHERE, OBJECT_PLANE or OBJECT_MESH, as a hit on it is */
     uint index;            /* the sphere, plane or mesh instance */
@@ -246,10 +246,10 @@ typedef struct Light {
     float prob;            /* the probability that light sampling picks this entry */
     float cdf;             /* the sum of prob up to and including this entry */
     /* a sphere's visible cap: the points q with dot(q - corner, normal) >= radius - cap_height;
-     * 0: all of it (src/device/lights.rs, `visible_cap`) */
+     * 0: all of it (src/pack/lights.rs, `visible_cap`) */
     float cap_height;
     /* 1: a rectangle sampled by the solid angle it subtends (nee.h sph_rect; a wall of the
-     * closed room, src/device/lights.rs); 0: by area */
+     * closed room, src/pack/lights.rs); 0: by area */
     uint solid_angle;
 } Light;
 CLPT_ASSERT_SIZE(Light, 88);
@@ -276,7 +276,7 @@ typedef struct RenderParams {
     float rr_threshold;
     /* the planes tested as walls where there is no object BVH (objects.h, walls_intersect): at
      * 2k the one whose normal is +axis k, at 2k + 1 the one whose normal is -axis k, or
-     * WALL_NONE (src/device/upload.rs, `walls`) */
+     * WALL_NONE (src/pack/mod.rs, `walls`) */
     uint walls[6];
     /* bit i: plane i is one of walls[] (the host picks only planes numbered below 32) */
     uint wall_mask;

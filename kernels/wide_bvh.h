@@ -3,7 +3,7 @@
  *
  * Reads: the mesh's WideBvhNode array (types.h), its leaves' triangle slots (in the kd_indices
  * buffer: each slot the triangle's three vertex numbers in the scene's vertex array and its
- * number in its mesh, src/device/upload.rs) and vertices. Writes: nothing. The ray is in the
+ * number in its mesh, src/pack/mod.rs) and vertices. Writes: nothing. The ray is in the
  * mesh's object space (direction not normalised).
  * Why: a CPU walks a mesh one ray at a time, a wide program (lanes.h) one lane's after another;
  * where a kd-tree step decides one split plane, a wide node's eight boxes are tested at once on
@@ -13,6 +13,10 @@
  */
 #ifndef CLPT_WIDE_BVH_H
 #define CLPT_WIDE_BVH_H
+
+#include "types.h"
+#include "triangle.h"
+#include "aabb.h"
 
 /* At most seven children wait per level of the path from the root, and the host's trees have
  * at most 64 levels (accel/wide_bvh.rs: SAH splits to depth 32, object medians below). */

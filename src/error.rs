@@ -92,7 +92,7 @@ pub enum Error {
 
     /// A file larger than clpt reads of its kind (`what`: "scene"), checked while reading, so
     /// an endless source (`/dev/zero`, a pipe) ends too.
-    #[error("{what} {}: {}", path.display(), crate::input::over_limit(*size, *limit, flag))]
+    #[error("{what} {}: {}", path.display(), over_limit(*size, *limit, flag))]
     FileTooLarge {
         what: &'static str,
         path: PathBuf,
@@ -158,6 +158,16 @@ impl Error {
             message: concise_opencl_message(&err.to_string()),
         }
     }
+}
+
+/// What a file over its limit gets: its size where known, the limit, and the option (`flag`)
+/// that raises it.
+pub fn over_limit(size: Option<u64>, limit: u64, flag: &str) -> String {
+    let size = size.map_or(String::new(), |s| format!("the file is {}, ", bytes(s)));
+    format!(
+        "{size}larger than the limit of {}; a larger file can be read with {flag} N",
+        bytes(limit)
+    )
 }
 
 /// "100 bytes", or "67108864 bytes (64.0 MiB)" from a mebibyte on.

@@ -14,7 +14,7 @@ use clpt::render::{
     report,
     strategy::{LightSampling, Roulette},
 };
-use clpt::render::{merge, multi};
+use clpt::render::{merge, multi, plot as plots};
 use clpt::scene::{Scene, builtin};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -490,7 +490,7 @@ fn render(args: &RenderArgs) -> Result<u8> {
         output::check_writable(path, report::REPORT_FORMATS)?;
     }
     if let Some(path) = &args.plot {
-        output::check_writable(path, report::PLOT_FORMATS)?;
+        output::check_writable(path, plots::PLOT_FORMATS)?;
     }
     if let Some(path) = &args.dump_kernel {
         output::check_writable(path, &[])?;
@@ -698,7 +698,7 @@ fn render(args: &RenderArgs) -> Result<u8> {
         report::write_report(path, &stats.report, &stats.choice)?;
     }
     if let Some(path) = &args.plot {
-        report::write_plot(
+        plots::write_plot(
             path,
             &stats.report,
             &format!("{} on {}", scene.source, device.description.name),
@@ -997,7 +997,7 @@ fn compare(args: &CompareArgs) -> Result<()> {
 
 fn plot(args: &PlotArgs) -> Result<()> {
     if let Some(path) = &args.output {
-        output::check_writable(path, report::PLOT_FORMATS)?;
+        output::check_writable(path, plots::PLOT_FORMATS)?;
     }
     let runs = args
         .runs
@@ -1013,7 +1013,7 @@ fn plot(args: &PlotArgs) -> Result<()> {
                     (stem, file)
                 }
             };
-            let rows = efficiency::read_report(&file)?;
+            let rows = report::read_report(&file)?;
             Ok(efficiency::Run { label, rows })
         })
         .collect::<Result<Vec<_>>>()?;
@@ -1046,7 +1046,7 @@ fn plot(args: &PlotArgs) -> Result<()> {
         "relMSE x s: median over each run's last decade of time; * past the run's end (MSE x t flat)"
     );
     if let Some(path) = &args.output {
-        report::write_efficiency_plot(path, &runs, args.reference_error, &args.title)?;
+        plots::write_efficiency_plot(path, &runs, args.reference_error, &args.title)?;
     }
     Ok(())
 }

@@ -17,7 +17,7 @@
 //!   one lit by every kind of listed emitter (a transformed sphere, a rotated square, the
 //!   triangles of a scaled mesh) and an unlisted ellipsoid, with bump-mapped and smooth-normal
 //!   diffuse surfaces (tests/common `every_light_scene`), and on the original's case2 room
-//!   whose emitters light sampling clips to the room (src/device/lights.rs): its ceiling and
+//!   whose emitters light sampling clips to the room (src/pack/lights.rs): its ceiling and
 //!   front wall of range 1000, a rotated panel through three walls, and a mesh lamp above the
 //!   ceiling it drops (tests/common `clipped_room_scene`).
 //!

@@ -228,7 +228,7 @@ fn goblet(raise: f64) -> Scene {
 
 /// Which pixels' centre rays meet the surface (probe_hit, kind 4: a surface of revolution).
 fn silhouette(device: &clpt::device::Device, scene: &Scene) -> Vec<bool> {
-    let packed = clpt::device::upload::PackedScene::new(scene, u64::MAX).unwrap();
+    let packed = clpt::pack::PackedScene::new(scene, u64::MAX).unwrap();
     let cam = &packed.camera;
     let mut rays = Vec::new();
     for y in 0..cam.height {
@@ -387,7 +387,7 @@ Materials {{ numMaterials 1 Material {{ color 0.5 0.5 0.5 }} }}
 Group {{ numObjects 1 MaterialIndex 0 {object} }}"
         );
         let scene = parse_scene(&text, "far.txt").unwrap_or_else(|e| panic!("{object}: {e}"));
-        let err = clpt::device::upload::PackedScene::new(&scene, u64::MAX)
+        let err = clpt::pack::PackedScene::new(&scene, u64::MAX)
             .err()
             .unwrap_or_else(|| panic!("{object}: packed"))
             .to_string();

@@ -513,9 +513,8 @@ fn walls_go_where_an_axis_has_a_wall_on_each_side() {
     let scene_of = |text: &str| clpt::scene::parse::parse_scene(text, "walls").unwrap();
     let room = scene_of(include_str!("../scenes/ceiling_room.txt"));
     let smallpt = clpt::scene::builtin::scene().unwrap();
-    let packed =
-        |s: &clpt::scene::Scene| clpt::device::upload::PackedScene::new(s, 1 << 20).unwrap();
-    let slots = |s: &Scene| clpt::device::upload::walls(&packed(s).planes).0;
+    let packed = |s: &clpt::scene::Scene| clpt::pack::PackedScene::new(s, 1 << 20).unwrap();
+    let slots = |s: &Scene| clpt::pack::walls(&packed(s).planes).0;
     let (room_slots, smallpt_slots) = (slots(&room), slots(&smallpt));
     let cpu = device("PoCL", false, 16);
     assert!(Features::of(&room, ObjectBvh::Off).walls_on(&room_slots, &cpu));

@@ -268,7 +268,7 @@ fn scene_files_end_in_a_scene_or_an_error() {
     fuzz("scene", "scene.txt", |path| {
         if let Ok(scene) = Scene::load(path) {
             // Packing runs on the host: textures, meshes, kd-trees, the BVH and the lights.
-            let _ = clpt::device::upload::PackedScene::new(&scene, 1 << 20);
+            let _ = clpt::pack::PackedScene::new(&scene, 1 << 20);
         }
     });
 }
@@ -303,7 +303,7 @@ fn images_to_compare_end_in_an_image_or_an_error() {
 #[test]
 fn reports_end_in_passes_or_an_error() {
     fuzz("report", "report.csv", |path| {
-        let _ = clpt::render::efficiency::read_report(path);
+        let _ = clpt::render::report::read_report(path);
     });
 }
 

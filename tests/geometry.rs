@@ -350,7 +350,7 @@ fn walls_and_other_planes_give_the_nearest_plane() {
     ];
     let scene = common::packed(vec![], planes, vec![Default::default()]);
     assert_eq!(
-        clpt::device::upload::walls(&scene.planes),
+        clpt::pack::walls(&scene.planes),
         ([1, 2, 3, 0, 4, 5], 0b111111),
         "the six room planes are the walls, the second ones of a side are not"
     );

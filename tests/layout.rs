@@ -165,3 +165,55 @@ fn kernel_arguments_bound_under_a_wrong_name_are_refused() {
         ),
     }
 }
+
+/// Every kernel header includes what it uses: each builds alone (a program of that header and an
+/// empty kernel), with every feature on, at one lane and at eight.
+#[test]
+fn every_header_builds_on_its_own() {
+    let device = common::device();
+    let dir = program::checkout_kernel_dir();
+    let mut headers: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".h"))
+        .collect();
+    headers.sort();
+    let mut failed = Vec::new();
+    // A wide program has no surfaces of revolution, texture maps or object BVH (features.rs).
+    let wide = [
+        ("CLPT_LANES", "8"),
+        ("CLPT_REVSURFACES", "0"),
+        ("CLPT_TEXTURES", "0"),
+        ("CLPT_BVH", "0"),
+    ];
+    for (lanes, defines) in [("1", &[][..]), ("8", &wide[..])] {
+        for header in &headers {
+            // Headers included only under a switch (objects.h, shapes.h, pathtracer.cl) are
+            // built where it is on.
+            let switch = [
+                ("texture.h", "CLPT_TEXTURES"),
+                ("bvh.h", "CLPT_BVH"),
+                ("revsurface.h", "CLPT_REVSURFACES"),
+            ];
+            if switch
+                .iter()
+                .any(|(h, s)| h == header && defines.iter().any(|(k, v)| k == s && *v == "0"))
+            {
+                continue;
+            }
+            let text = format!("#include \"{header}\"\n__kernel void alone(void) {{}}\n");
+            let source = KernelSources::Embedded
+                .expand_text("alone.cl", &text)
+                .unwrap();
+            let defines: Vec<(&str, String)> =
+                defines.iter().map(|(k, v)| (*k, v.to_string())).collect();
+            let options = program::build_options(&defines);
+            if let Err(e) = program::build(&device, source, options, None) {
+                let e = e.to_string();
+                let first = e.lines().find(|l| l.contains("error")).unwrap_or(&e);
+                failed.push(format!("{header} at {lanes} lanes: {first}"));
+            }
+        }
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
+}

@@ -1,4 +1,4 @@
-//! The light list next-event estimation samples (src/device/lights.rs), on the host: which
+//! The light list next-event estimation samples (src/pack/lights.rs), on the host: which
 //! emitters it takes, where it places them in world space, and the probabilities of picking
 //! them. That light sampling and pure path tracing then agree on the device is
 //! tests/convergence.rs's `light_sampling_and_pure_path_tracing_agree`.
@@ -12,8 +12,8 @@
 mod common;
 
 use clpt::contract::{Light, OBJECT_MESH, OBJECT_PLANE, OBJECT_SPHERE};
-use clpt::device::lights::Room;
-use clpt::device::upload::PackedScene;
+use clpt::pack::PackedScene;
+use clpt::pack::lights::Room;
 use clpt::scene::Scene;
 use glam::{DMat4, DVec3};
 use rand::rngs::SmallRng;

@@ -7,7 +7,7 @@
 mod common;
 
 use clpt::contract::{OBJECT_MESH, OBJECT_PLANE, OBJECT_SPHERE};
-use clpt::device::upload::PackedScene;
+use clpt::pack::PackedScene;
 use clpt::scene::Scene;
 use clpt::scene::mesh::{self, TriangleMesh};
 use clpt::scene::procedural;

@@ -935,7 +935,7 @@ fn every_shipped_scene_loads_and_packs() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "txt") {
             let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-            clpt::device::upload::PackedScene::new(&scene, u64::MAX)
+            clpt::pack::PackedScene::new(&scene, u64::MAX)
                 .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             count += 1;
         }
@@ -1281,8 +1281,8 @@ fn plane_normals_of_any_length_pack_as_their_unit_normal() {
             "numObjects 1 Plane {{ normal {x:e} {y:e} {z:e} offset {offset:e} range 10 }}"
         ));
         let scene = parse_scene(&text, "plane").unwrap_or_else(|e| panic!("{e}"));
-        let packed = clpt::device::upload::PackedScene::new(&scene, u64::MAX)
-            .unwrap_or_else(|e| panic!("{e}"));
+        let packed =
+            clpt::pack::PackedScene::new(&scene, u64::MAX).unwrap_or_else(|e| panic!("{e}"));
         (packed.planes[0].normal, packed.planes[0].offset)
     };
     for unit in [[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.6, 0.0, 0.8]] {

@@ -13,7 +13,7 @@ mod common;
 
 use clpt::device::kernel::NamedArgs;
 use clpt::device::program::KernelSources;
-use clpt::device::upload::PackedScene;
+use clpt::pack::PackedScene;
 use clpt::render::{RenderOptions, Renderer};
 use clpt::scene::curve::{self, Curve, CurveKind};
 use clpt::scene::parse::parse_scene;

@@ -150,7 +150,7 @@ fn a_sunk_sphere_light_sampled_over_its_cap_matches_path_tracing() {
                   Sphere { center 1.25 0.75 -1 radius 0.2 } \
                   MaterialIndex 0 Sphere { center -1 0.4 0 radius 0.4 } }\n";
     let scene = parse_scene(text, "sunk lights").unwrap_or_else(|e| panic!("{e}"));
-    let packed = clpt::device::upload::PackedScene::new(&scene, u64::MAX).unwrap();
+    let packed = clpt::pack::PackedScene::new(&scene, u64::MAX).unwrap();
     let caps: Vec<f32> = packed.lights.iter().map(|l| l.cap_height).collect();
     assert!(
         caps.len() == 2 && caps.iter().all(|&h| h > 0.0),

@@ -54,7 +54,7 @@ shared! {
     pub const WIDE_BVH_EMPTY: u32 = u32::MAX;
     /// The words of a leaf's triangle slot, which a wide BVH's first index counts in (in the
     /// kd_indices buffer): the triangle's three vertices' numbers in the scene's vertex array
-    /// and its number in its mesh (src/device/upload.rs, wide_bvh.h).
+    /// and its number in its mesh (src/pack/mod.rs, wide_bvh.h).
     pub const WIDE_BVH_SLOT: u32 = 4;
 
     /// A node of a mesh's 8-wide BVH (src/accel/wide_bvh.rs, wide_bvh.h), a CPU's mesh tree:
@@ -151,7 +151,7 @@ shared! {
     /// A one-sided plane n.p = offset (plane.cuh), visible from the side n points to, limited
     /// to the points p with |p - center| <= range in every coordinate (the original's bounding
     /// box, centred on n*offset in the scene's own coordinates; the host moves both with the
-    /// camera-relative origin, src/device/upload.rs). centerp, dir_u, dir_v map texture
+    /// camera-relative origin, src/pack/mod.rs). centerp, dir_u, dir_v map texture
     /// coordinates (texture issue).
     pub struct Plane {
         /// unit
@@ -225,7 +225,7 @@ shared! {
     }
 
     /// An emitter of the light list that next-event estimation samples (nee.h), in world space
-    /// (the host applied its object's transform: src/device/lights.rs). Entries are sorted by
+    /// (the host applied its object's transform: src/pack/lights.rs). Entries are sorted by
     /// (kind, index, triangle), so that a hit finds its entry by binary search, and `cdf` rises
     /// along them, so that a uniform number picks an entry with probability `prob`.
     pub struct Light {
@@ -254,10 +254,10 @@ shared! {
         /// the sum of prob up to and including this entry
         pub cdf: f32,
         /// a sphere's visible cap: the points q with dot(q - corner, normal) >= radius -
-        /// cap_height; 0: all of it (src/device/lights.rs, `visible_cap`)
+        /// cap_height; 0: all of it (src/pack/lights.rs, `visible_cap`)
         pub cap_height: f32,
         /// 1: a rectangle sampled by the solid angle it subtends (nee.h sph_rect; a wall of the
-        /// closed room, src/device/lights.rs); 0: by area
+        /// closed room, src/pack/lights.rs); 0: by area
         pub solid_angle: u32,
     }
 
@@ -288,7 +288,7 @@ shared! {
         pub rr_threshold: f32,
         /// the planes tested as walls where there is no object BVH (objects.h, walls_intersect):
         /// at 2k the one whose normal is +axis k, at 2k + 1 the one whose normal is -axis k, or
-        /// WALL_NONE (src/device/upload.rs, `walls`)
+        /// WALL_NONE (src/pack/mod.rs, `walls`)
         pub walls: [u32; 6],
         /// bit i: plane i is one of walls[] (the host picks only planes numbered below 32)
         pub wall_mask: u32,
@@ -413,7 +413,7 @@ impl Sphere {
 
 impl Plane {
     /// The axis its normal lies along, where exactly one of the normal's components is not 0:
-    /// the walls of a closed room (device/lights.rs) and of `walls_intersect` (upload.rs).
+    /// the walls of a closed room (pack/lights.rs) and of `walls_intersect` (pack/mod.rs).
     pub fn axis(&self) -> Option<usize> {
         let mut axes = (0..3).filter(|&k| self.normal[k] != 0.0);
         match (axes.next(), axes.next()) {

@@ -1,13 +1,12 @@
 //! OpenCL platforms and devices: discovery, choice (`--device`, `CLPT_DEVICE`), and the
 //! context and queue a render runs on. Kernel building lives in [`program`] (its on-disk cache in
 //! [`cache`]), binding kernel arguments by name in [`kernel`], the device probe of the shared
-//! layouts ([`crate::contract`]) in [`layout`], next-event estimation's light list in [`lights`],
-//! packing and uploading the scene in [`upload`].
+//! layouts ([`crate::contract`]) in [`layout`], uploading the packed scene ([`crate::pack`]) in
+//! [`upload`].
 
 pub mod cache;
 pub mod kernel;
 pub mod layout;
-pub mod lights;
 pub mod program;
 pub mod upload;
 

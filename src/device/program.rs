@@ -32,6 +32,7 @@ const EMBEDDED: &[(&str, &str)] = &[
     ("wide_bvh.h", include_str!("../../kernels/wide_bvh.h")),
     ("bvh.h", include_str!("../../kernels/bvh.h")),
     ("revsurface.h", include_str!("../../kernels/revsurface.h")),
+    ("shapes.h", include_str!("../../kernels/shapes.h")),
     ("objects.h", include_str!("../../kernels/objects.h")),
     ("material.h", include_str!("../../kernels/material.h")),
     ("nee.h", include_str!("../../kernels/nee.h")),

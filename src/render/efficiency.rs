@@ -10,10 +10,7 @@
 //! reference need not be a hundred times longer than the runs it judges.
 
 use super::PassReport;
-use super::metrics::Metrics;
-use super::report::CSV_HEADER;
 use crate::error::{Error, Result};
-use std::path::Path;
 
 /// One render's report rows, under a label.
 #[derive(Clone, Debug)]
@@ -80,73 +77,11 @@ pub fn summarize(run: &Run, reference_relmse: f64) -> Result<Summary> {
     })
 }
 
-/// Reads a report that `--report` wrote as CSV.
-pub fn read_report(path: &Path) -> Result<Vec<PassReport>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::Read {
-        path: path.to_path_buf(),
-        source: e,
-    })?;
-    let bad = |line: usize, what: &str| {
-        Error::Invalid(format!("{}:{}: {what}", path.display(), line + 1))
-    };
-    let columns = CSV_HEADER.split(',').count();
-    // `#` lines: the estimator and its trial, before the header.
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.starts_with('#'));
-    match lines.next() {
-        Some((_, header)) if header.starts_with("pass,seconds,spp,") => {}
-        _ => return Err(bad(0, "not a clpt report (CSV, as --report writes it)")),
-    }
-    lines
-        .filter(|(_, l)| !l.trim().is_empty())
-        .map(|(n, line)| {
-            let fields: Vec<&str> = line.split(',').collect();
-            if fields.len() != columns {
-                return Err(bad(n, &format!("expected {columns} fields")));
-            }
-            // A non-finite value has no place on a log-log plot (it once made the axes span
-            // 2^31 decades): an error naming it, never a silent skip.
-            let num = |i: usize| -> Result<f64> {
-                let name = CSV_HEADER.split(',').nth(i).unwrap_or("a column");
-                match fields[i].parse::<f64>() {
-                    Ok(v) if v.is_finite() => Ok(v),
-                    Ok(_) => Err(bad(
-                        n,
-                        &format!("{name} is `{}`, not a finite number", fields[i]),
-                    )),
-                    Err(_) => Err(bad(n, &format!("{name} `{}` is not a number", fields[i]))),
-                }
-            };
-            let measured = if fields[6].is_empty() {
-                None
-            } else {
-                Some(Metrics {
-                    rmse: num(6)?,
-                    relmse: num(7)?,
-                    mae: num(8)?,
-                })
-            };
-            Ok(PassReport {
-                pass: num(0)? as u32,
-                seconds: num(1)?,
-                spp: num(2)? as u32,
-                spp_per_second: num(3)?,
-                estimate: super::ErrorEstimate {
-                    rmse: num(4)?,
-                    relmse: num(5)?,
-                },
-                measured,
-            })
-        })
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::render::ErrorEstimate;
+    use crate::render::metrics::Metrics;
 
     /// Passes at 1..=20 seconds of a renderer whose relMSE is exactly level / t, measured
     /// against a reference of relMSE `reference`.
@@ -192,68 +127,5 @@ mod tests {
         assert!((summary.level - 1.0).abs() < 1e-12 && !summary.measured);
         // Subtracting more than was there is an error, not a negative time.
         assert!(summarize(&run(0.5, 0.0), 1.0).is_err());
-    }
-
-    #[test]
-    fn reports_round_trip_through_csv_and_bad_files_are_errors() {
-        let dir = std::env::temp_dir();
-        let path = dir.join(format!("clpt-efficiency-{}.csv", std::process::id()));
-        let rows = run(0.5, 1e-3).rows;
-        // A report of a render whose trial measured two strategies: its `#` lines are skipped.
-        let strategy = |light_sampling| crate::render::strategy::Strategy {
-            light_sampling,
-            rr_threshold: 1.0,
-        };
-        let measured = |light_sampling| crate::render::strategy::Measured {
-            strategy: strategy(light_sampling),
-            seconds_per_sample: 1e-6,
-            relative_variance: 0.5,
-            relative_variance_se: 0.01,
-            missed_rare_paths: false,
-            samples: 8,
-            dropped: false,
-        };
-        let choice = crate::render::strategy::Choice {
-            measured: vec![measured(true), measured(false)],
-            chosen: 1,
-            seconds: 0.25,
-            pixels: 100.0,
-            film_samples: 0,
-        };
-        crate::render::report::write_report(&path, &rows, &choice).unwrap();
-        assert!(
-            std::fs::read_to_string(&path)
-                .unwrap()
-                .starts_with("# estimator: ")
-        );
-        let back = read_report(&path).unwrap();
-        assert_eq!(back.len(), rows.len());
-        for (a, b) in back.iter().zip(&rows) {
-            assert_eq!((a.pass, a.spp, a.seconds), (b.pass, b.spp, b.seconds));
-            assert_eq!(a.measured, b.measured);
-            assert_eq!(a.estimate.relmse, b.estimate.relmse);
-        }
-        for bad in ["", "seconds,rmse\n1,2\n", "pass,seconds,spp,x\n1,2,3\n"] {
-            std::fs::write(&path, bad).unwrap();
-            assert!(read_report(&path).is_err(), "{bad:?}");
-        }
-        std::fs::write(&path, "pass,seconds,spp,\n1,x,3,4,5,6,,,\n").unwrap();
-        let err = read_report(&path).unwrap_err().to_string();
-        assert!(err.contains(":2:") && err.contains("`x`"), "{err}");
-        // Infinite or NaN values are errors that name the column: an `inf` once made `plot`
-        // loop over 2^31 decades of axis.
-        for value in ["inf", "-inf", "NaN"] {
-            std::fs::write(
-                &path,
-                format!("pass,seconds,spp,\n1,0.5,8,16,1e-2,{value},,,\n"),
-            )
-            .unwrap();
-            let err = read_report(&path).unwrap_err().to_string();
-            assert!(
-                err.contains(":2:") && err.contains("relmse_estimate") && err.contains(value),
-                "{err}"
-            );
-        }
-        std::fs::remove_file(&path).ok();
     }
 }

@@ -5,6 +5,7 @@
 
 use crate::device::DeviceDescription;
 use crate::error::{Error, Result};
+use crate::input::gib;
 
 /// Device bytes a pixel holds: five float4 sums (value and its compensation, squares, the
 /// odd half and its compensation) and two u32 counters (kernels/pathtracer.cl `render_pass`).
@@ -63,19 +64,6 @@ pub fn check_film_fits(
     }
 }
 
-/// The host memory available now (Linux: MemAvailable of /proc/meminfo), if the system says.
-pub fn host_available_bytes() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    kib.checked_mul(1024)
-}
-
-/// `bytes` in GiB with one decimal, for messages.
-pub(crate) fn gib(bytes: u64) -> String {
-    format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -123,12 +111,5 @@ mod tests {
         );
         // A device that reports nothing is not refused on its account.
         assert!(check_film_fits(&device(0, 0), 65536, 65536, None).is_ok());
-    }
-
-    #[test]
-    fn this_machine_reports_its_memory() {
-        if cfg!(target_os = "linux") {
-            assert!(host_available_bytes().is_some_and(|b| b > 0));
-        }
     }
 }

@@ -19,6 +19,7 @@ pub mod memory;
 pub mod merge;
 pub mod metrics;
 pub mod multi;
+pub mod plot;
 pub mod report;
 pub mod resume;
 pub mod strategy;
@@ -27,9 +28,10 @@ pub mod trial;
 use crate::contract::{self, ErrorRow, RenderParams};
 use crate::device::kernel::NamedArgs;
 use crate::device::program::{self, BuiltProgram, KernelSources};
-use crate::device::upload::{PackedScene, SceneBuffers};
+use crate::device::upload::SceneBuffers;
 use crate::device::{Device, DeviceDescription};
 use crate::error::{Error, Result};
+use crate::pack::PackedScene;
 use crate::scene::Scene;
 use features::Features;
 use film::Film;
@@ -626,7 +628,7 @@ impl<'d> Renderer<'d> {
             &device.description,
             scene.camera.width,
             scene.camera.height,
-            memory::host_available_bytes(),
+            crate::input::host_available_bytes(),
         )?;
         // Leave out what the scene does not need (features.rs, kernels/features.h); the mesh
         // tree is packed for the program (MeshTree).

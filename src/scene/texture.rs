@@ -12,7 +12,7 @@
 use super::{Scene, Shape};
 use crate::contract::{self, MAP_BUMP8, MAP_RGB8, MAP_TYPE8, TextureMap};
 use crate::error::{Error, Result};
-use crate::render::memory::{gib, host_available_bytes};
+use crate::input::{gib, host_available_bytes};
 use bytemuck::Zeroable;
 use image::{DynamicImage, ImageBuffer, ImageDecoder, Pixel};
 use std::collections::HashMap;

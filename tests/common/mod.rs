@@ -93,8 +93,7 @@ impl Probes {
 pub fn every_light_scene_lights(test: &str) -> Vec<clpt::contract::Light> {
     let dir = std::env::temp_dir().join(format!("clpt-{}-{test}", std::process::id()));
     let scene = every_light_scene(&dir);
-    let packed =
-        clpt::device::upload::PackedScene::new(&scene, u64::MAX).unwrap_or_else(|e| panic!("{e}"));
+    let packed = clpt::pack::PackedScene::new(&scene, u64::MAX).unwrap_or_else(|e| panic!("{e}"));
     let _ = std::fs::remove_dir_all(&dir);
     in_scene_coordinates(packed).lights
 }
@@ -167,7 +166,8 @@ pub fn run(kernel: &ocl::Kernel, n: usize) {
 
 use clpt::contract::{Material, Plane, Sphere};
 use clpt::device::kernel::NamedArgs;
-use clpt::device::upload::{PackedScene, SceneBuffers};
+use clpt::device::upload::SceneBuffers;
+use clpt::pack::PackedScene;
 use clpt::scene::CameraDesc;
 use clpt::scene::camera::CameraBasis;
 use glam::DVec3;

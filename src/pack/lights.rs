@@ -107,7 +107,7 @@
 //! area density. Larger caps are sampled as the whole sphere, by its cone, which serves them
 //! better (a cap's back side, seen from a point, is hidden by its front).
 
-use super::upload::f32x3;
+use super::convert::f32x3;
 use crate::contract::{self, Light, Material, MeshDesc, TextureMap, Transform};
 use crate::scene::camera::CameraBasis;
 use glam::{DMat3, DVec3};
