@@ -151,30 +151,24 @@ inline void path_select(Path* p, Path q, lmask m) {
 }
 #endif
 
-/* One vertex of path p in each lane of `active`: traces its ray, adds the emission found there
- * (and, with light sampling, a light sample), scatters, and plays roulette. Returns the lanes
- * whose paths go on; where a path does not, p->radiance is the sample's value. At width 1
- * (lanes.h) `active` is true and each mask a plain condition. */
-inline lmask path_bounce(const Scene* sc, Path* p, lmask active) {
-    __global const RenderParams* params = sc->params;
-    lmask alive = active && p->depth < params->max_depth;
-    if (!lane_any(alive)) {
-        return alive;
-    }
-    const LFloat3 d = p->d; /* the ray's direction; p->d becomes the next one */
+/* The stages of one path vertex, in pbrt-v4's names (its wavefront integrator: intersect, add
+ * emitted, sample light, sample BSDF, Russian roulette), each over the lanes of `alive`. */
+
+/* Intersect: the nearest hit of each live lane's ray. */
+inline Hit path_intersect(const Scene* sc, const Path* p, lmask alive) {
 #if CLPT_WIDE
     /* Ended lanes ask nothing (a mesh walks its tree lane by lane). */
-    const Hit hit =
-        scene_intersect_until(sc, p->o, d, lselect((lfloat)(0.0f), (lfloat)(INFINITY), alive));
+    return scene_intersect_until(sc, p->o, p->d,
+                                 lselect((lfloat)(0.0f), (lfloat)(INFINITY), alive));
 #else
-    const Hit hit = scene_intersect(sc, p->o, d);
+    return scene_intersect(sc, p->o, p->d);
 #endif
-    alive = alive && hit.kind != OBJECT_NONE; /* the background is black */
-    if (!lane_any(alive)) {
-        return alive;
-    }
-    const Surface s = scene_surface(sc, hit, p->o, d);
-    const SurfaceMaterial sm = material_at(sc, hit, s);
+}
+
+/* Add emitted: what the surface hit emits towards the ray (direction d), weighed by MIS
+ * against the light sample the previous vertex took, if it took one (nee.h). */
+inline void path_add_emitted(const Scene* sc, Path* p, Hit hit, Surface s, SurfaceMaterial sm,
+                             LFloat3 d, lmask alive) {
 #if CLPT_NEE
     const lmask emits =
         alive && (sm.emission.x != 0.0f || sm.emission.y != 0.0f || sm.emission.z != 0.0f);
@@ -194,12 +188,14 @@ inline lmask path_bounce(const Scene* sc, Path* p, lmask active) {
     p->radiance = v3_select(p->radiance, v3_add(p->radiance, v3_mul(p->throughput, sm.emission)),
                             alive);
 #endif
+}
 
-    const LFloat4 u = rng_next4(&p->rng);
 #if CLPT_NEE
-    /* Light sampling at every vertex but a delta lobe's, bent shading normals (bump maps,
-     * smooth meshes) included: nee.h joins the light's trio to material.h's. */
-    p->sampled_light = alive && !bsdf_is_delta(sm.type) && params->num_lights > 0u;
+/* Sample light: a light sample at every vertex but a delta lobe's, bent shading normals (bump
+ * maps, smooth meshes) included: nee.h joins the light's trio to material.h's. */
+inline void path_sample_light(const Scene* sc, Path* p, Surface s, SurfaceMaterial sm, LFloat3 d,
+                              lmask alive) {
+    p->sampled_light = alive && !bsdf_is_delta(sm.type) && sc->params->num_lights > 0u;
     if (lane_any(p->sampled_light)) {
         const LFloat3 light = sample_light(sc, s, sm.type, sm.color, v3_neg(d), sm.shading_normal,
                                            rng_light4(&p->rng, p->depth), p->sampled_light,
@@ -207,7 +203,13 @@ inline lmask path_bounce(const Scene* sc, Path* p, lmask active) {
         p->radiance = v3_select(p->radiance, v3_add(p->radiance, v3_mul(p->throughput, light)),
                                 p->sampled_light);
     }
+}
 #endif
+
+/* Sample BSDF: the next direction from the uniforms u, the throughput times its weight, and
+ * (with light sampling) the density it was found with, the next hit's MIS weight. */
+inline LFloat3 path_sample_bsdf(Path* p, Surface s, SurfaceMaterial sm, LFloat3 d, LFloat4 u,
+                                lmask alive) {
     LFloat3 wi;
     lfloat pdf;
     lmask is_delta;
@@ -215,22 +217,24 @@ inline lmask path_bounce(const Scene* sc, Path* p, lmask active) {
                                        &wi, &pdf, &is_delta);
     p->throughput = v3_select(p->throughput, v3_mul(p->throughput, weight), alive);
 #if CLPT_NEE
-    /* The density with which this vertex found wi: the next hit's MIS weight. */
     p->prev_p = v3_select(p->prev_p, s.p, p->sampled_light);
     p->prev_pdf = lselect(p->prev_pdf, pdf, p->sampled_light);
 #endif
+    return wi;
+}
 
-    /* Russian roulette as the lower edge of a weight window (Vorba and Krivanek 2016,
-     * "Adjoint-driven Russian roulette and splitting", without the splitting): from bounce
-     * rr_depth on, a path whose largest throughput component m is below rr_threshold
-     * survives with probability m / rr_threshold and then carries rr_threshold, so no
-     * survivor's weight grows past the window. rr_threshold 1 is pbrt-v4's throughput
-     * roulette (section 14.1.5); lower thresholds let bright paths run on (the host picks
-     * it by measured efficiency, render/strategy.rs). Survival is capped at 0.95, as
-     * Mitsuba 3 does, so every path past rr_depth ends with probability >= 0.05 a bounce:
-     * even a closed room of albedo 1 (the original's untextured defaults) has paths of at
-     * most rr_depth + 20 bounces on average. A zero (or non-finite) throughput ends the
-     * path at once. The 1/survive weight keeps the estimate unbiased. */
+/* Russian roulette as the lower edge of a weight window (Vorba and Krivanek 2016,
+ * "Adjoint-driven Russian roulette and splitting", without the splitting): from bounce
+ * rr_depth on, a path whose largest throughput component m is below rr_threshold survives with
+ * probability m / rr_threshold and then carries rr_threshold, so no survivor's weight grows
+ * past the window. rr_threshold 1 is pbrt-v4's throughput roulette (section 14.1.5); lower
+ * thresholds let bright paths run on (the host picks it by measured efficiency,
+ * render/strategy.rs). Survival is capped at 0.95, as Mitsuba 3 does, so every path past
+ * rr_depth ends with probability >= 0.05 a bounce: even a closed room of albedo 1 (the
+ * original's untextured defaults) has paths of at most rr_depth + 20 bounces on average. A zero
+ * (or non-finite) throughput ends the path at once. The 1/survive weight keeps the estimate
+ * unbiased. Counts the bounce; returns the lanes whose paths go on. */
+inline lmask path_roulette(__global const RenderParams* params, Path* p, lfloat u, lmask alive) {
     const lfloat m = max_component(p->throughput);
     alive = alive && m > 0.0f;
     if (!lane_any(alive)) {
@@ -240,11 +244,42 @@ inline lmask path_bounce(const Scene* sc, Path* p, lmask active) {
     const lmask roulette = alive && p->depth >= params->rr_depth;
     if (lane_any(roulette)) {
         const lfloat survive = fmin(m / params->rr_threshold, RR_MAX_SURVIVAL);
-        alive = alive && !(roulette && !(u.w < survive));
+        alive = alive && !(roulette && !(u < survive));
         if (!lane_any(alive)) {
             return alive;
         }
         p->throughput = v3_select(p->throughput, v3_div(p->throughput, survive), roulette);
+    }
+    return alive;
+}
+
+/* One vertex of path p in each lane of `active`, stage by stage: intersect, add emitted,
+ * sample light, sample BSDF, Russian roulette, and the next ray spawned off the surface.
+ * Returns the lanes whose paths go on; where a path does not, p->radiance is the sample's
+ * value. At width 1 (lanes.h) `active` is true and each mask a plain condition. */
+inline lmask path_bounce(const Scene* sc, Path* p, lmask active) {
+    __global const RenderParams* params = sc->params;
+    lmask alive = active && p->depth < params->max_depth;
+    if (!lane_any(alive)) {
+        return alive;
+    }
+    const LFloat3 d = p->d; /* the ray's direction; p->d becomes the next one */
+    const Hit hit = path_intersect(sc, p, alive);
+    alive = alive && hit.kind != OBJECT_NONE; /* the background is black */
+    if (!lane_any(alive)) {
+        return alive;
+    }
+    const Surface s = scene_surface(sc, hit, p->o, d);
+    const SurfaceMaterial sm = material_at(sc, hit, s);
+    path_add_emitted(sc, p, hit, s, sm, d, alive);
+    const LFloat4 u = rng_next4(&p->rng);
+#if CLPT_NEE
+    path_sample_light(sc, p, s, sm, d, alive);
+#endif
+    const LFloat3 wi = path_sample_bsdf(p, s, sm, d, u, alive);
+    alive = path_roulette(params, p, u.w, alive);
+    if (!lane_any(alive)) {
+        return alive;
     }
     p->o = v3_select(p->o, offset_ray_origin(s.p, s.p_error, s.n, wi), alive);
     p->d = v3_select(p->d, wi, alive);

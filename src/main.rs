@@ -6,12 +6,13 @@ use clpt::device::program::{CacheUse, KernelSources};
 use clpt::device::{self};
 use clpt::output;
 use clpt::render::bench::{BenchResult, bench_scene};
+use clpt::render::film::Film;
 use clpt::render::film_file::FilmState;
 use clpt::render::metrics::{self, LinearImage};
 use clpt::render::resume::{self, BackgroundWriter, FilmRecord};
 use clpt::render::{
-    Flow, MeshTree, ObjectBvh, Progress, RenderOptions, Renderer, TextureFilter, efficiency, film,
-    report,
+    Flow, MeshTree, ObjectBvh, Progress, RenderOptions, RenderStats, Renderer, TextureFilter,
+    efficiency, film, report,
     strategy::{LightSampling, Roulette},
 };
 use clpt::render::{merge, multi, plot as plots};
@@ -437,6 +438,113 @@ const CPU_DEFAULT_SECONDS: u64 = 12;
 /// render after writing its image and checkpoint.
 fn render(args: &RenderArgs) -> Result<u8> {
     let scene = load_scene(args.scene.as_deref(), &args.sampling)?;
+    let (mut options, range) = render_options(args)?;
+    let outputs = check_outputs(args)?;
+    let resumed = read_checkpoint(args, &scene, &mut options)?;
+    if let Some(list) = args.device.several() {
+        return render_on_devices(args, &scene, &options, &outputs.image, &list);
+    }
+    let stop = stop_on_signals()?;
+    let (device, sources) = args.device.open()?;
+    if args.verbose {
+        eprintln!("device: {}", device.description);
+    }
+    let open_ended = range.is_none() && resumed.is_none();
+    if open_ended && device.description.kind == "CPU" {
+        limit_cpu_render(args, &mut options);
+    }
+    let mut renderer = Renderer::new(&device, &scene, &sources, options.clone())?;
+    if let Some(c) = &resumed {
+        renderer.resume(&c.state, c.samples(), c.strategy)?;
+        if args.verbose {
+            eprintln!(
+                "resuming {}: {} samples per pixel, {}, {:.2} s so far",
+                args.resume.as_deref().unwrap_or(Path::new("")).display(),
+                c.samples(),
+                c.strategy,
+                c.meta.seconds
+            );
+        }
+    }
+    let record = FilmRecord {
+        scene_file: args.scene.as_deref(),
+        options: &options,
+        device: &device.description.name,
+        seconds_before: resumed.as_ref().map_or(0.0, |c| c.meta.seconds),
+    };
+    if let Some(path) = &args.dump_kernel {
+        dump_kernels(path, &renderer)?;
+    }
+    if args.verbose {
+        print_setup(&scene, &renderer);
+    } else {
+        warn_uncached(&renderer);
+    }
+    let bar = progress_bar(args.quiet, options.spp)?;
+    let (film, stats) = render_with_checkpoints(
+        args,
+        &outputs.checkpoint,
+        &bar,
+        &stop,
+        &record,
+        &mut renderer,
+    )?;
+    bar.finish_and_clear();
+    let title = format!("{} on {}", scene.source, device.description.name);
+    write_outputs(args, &outputs, &record, &renderer, (&film, &stats), &title)?;
+    print_summary(args, &options, &outputs.image, &film, &stats);
+    if stats.stopped {
+        let (name, status) = stop.signal();
+        let total = options.spp.map_or(String::new(), |n| format!(" of {n}"));
+        eprintln!(
+            "{name}: stopped after {}{total} samples per pixel; the image and the checkpoint {} \
+             hold them. Resume with the same command and `--resume {}`.",
+            film.spp,
+            outputs.checkpoint.display(),
+            outputs.checkpoint.display()
+        );
+        return Ok(status);
+    }
+    Ok(0)
+}
+
+/// `--resume FILE`: the checkpoint to continue, its estimator fixed in `options`.
+fn read_checkpoint(
+    args: &RenderArgs,
+    scene: &Scene,
+    options: &mut RenderOptions,
+) -> Result<Option<resume::Checkpoint>> {
+    let Some(path) = &args.resume else {
+        return Ok(None);
+    };
+    let c = resume::read_for_resume(
+        path,
+        args.scene.as_deref(),
+        options,
+        (scene.camera.width, scene.camera.height),
+    )?;
+    c.fix_strategy(options);
+    Ok(Some(c))
+}
+
+/// A CPU render given neither `--spp`, `--time` nor `--target-error` stops after
+/// [`CPU_DEFAULT_SECONDS`], and says so.
+fn limit_cpu_render(args: &RenderArgs, options: &mut RenderOptions) {
+    if args.spp.is_some() || args.time.is_some() || args.target_error.is_some() {
+        return;
+    }
+    options.time_limit = Some(Duration::from_secs(CPU_DEFAULT_SECONDS));
+    if !args.quiet {
+        eprintln!(
+            "on a CPU device a render stops after {CPU_DEFAULT_SECONDS} s unless --spp or \
+             --time says otherwise"
+        );
+    }
+}
+
+/// The render's options from the command line: sampling and program options, the shard's
+/// sample range (`--samples`, `--shard`), `--target-error` and `--reference`.
+fn render_options(args: &RenderArgs) -> Result<(RenderOptions, Option<(u32, u32)>)> {
     let mut options = options(&args.sampling, &args.program, args.spp, args.time)?;
     let range = match (&args.samples, &args.shard) {
         (Some(text), _) => Some(merge::parse_samples(text).map_err(anyhow::Error::msg)?),
@@ -479,12 +587,23 @@ fn render(args: &RenderArgs) -> Result<u8> {
     if let Some(path) = &args.reference {
         options.reference = Some(std::sync::Arc::new(LinearImage::read(path)?));
     }
+    Ok((options, range))
+}
+
+/// Where a render writes: the image, and its checkpoint (`--checkpoint`, or beside the image,
+/// for when a signal ends the render).
+struct RenderOutputs {
+    image: PathBuf,
+    checkpoint: PathBuf,
+}
+
+/// Every output a render names, checked before any work: a typo in a folder or format must not
+/// cost a render.
+fn check_outputs(args: &RenderArgs) -> Result<RenderOutputs> {
     let output = args
         .output
         .clone()
         .unwrap_or_else(|| default_output(args.scene.as_deref()));
-    // Every output is checked before any work: a typo in a folder or format must not cost a
-    // render.
     output::check_writable(&output, film::FORMATS)?;
     if let Some(path) = &args.report {
         output::check_writable(path, report::REPORT_FORMATS)?;
@@ -504,81 +623,40 @@ fn render(args: &RenderArgs) -> Result<u8> {
             args.checkpoint_every
         );
     }
-    // Where a checkpoint goes: --checkpoint, or beside the image when a signal ends the render.
     let checkpoint = args.checkpoint.clone().unwrap_or_else(|| {
         let stem = output.file_stem().unwrap_or_default().to_string_lossy();
         output.with_file_name(format!("{stem}.checkpoint.exr"))
     });
     output::check_writable(&checkpoint, &["exr"])?;
-    let resumed = match &args.resume {
-        Some(path) => {
-            let c = resume::read_for_resume(
-                path,
-                args.scene.as_deref(),
-                &options,
-                (scene.camera.width, scene.camera.height),
-            )?;
-            c.fix_strategy(&mut options);
-            Some(c)
-        }
-        None => None,
-    };
-    if let Some(list) = args.device.several() {
-        return render_on_devices(args, &scene, &options, &output, &list);
+    Ok(RenderOutputs {
+        image: output,
+        checkpoint,
+    })
+}
+
+/// `--dump-kernel FILE`: the exact source of each program built.
+fn dump_kernels(path: &Path, renderer: &Renderer) -> Result<()> {
+    // The first program (with light sampling when that is a candidate); a second one
+    // beside it, named FILE.no-nee, when the trial may choose either.
+    for (i, e) in renderer.estimators().iter().enumerate() {
+        let file = if i == 0 {
+            path.to_path_buf()
+        } else {
+            let mut name = path.as_os_str().to_owned();
+            name.push(".no-nee");
+            PathBuf::from(name)
+        };
+        output::write_bytes(&file, e.program.source.text.as_bytes())?;
     }
-    let stop = stop_on_signals()?;
-    let (device, sources) = args.device.open()?;
-    if args.verbose {
-        eprintln!("device: {}", device.description);
-    }
-    let unbounded = args.spp.is_none() && args.time.is_none() && args.target_error.is_none();
-    if unbounded && range.is_none() && resumed.is_none() && device.description.kind == "CPU" {
-        options.time_limit = Some(Duration::from_secs(CPU_DEFAULT_SECONDS));
-        if !args.quiet {
-            eprintln!(
-                "on a CPU device a render stops after {CPU_DEFAULT_SECONDS} s unless --spp or \
-                 --time says otherwise"
-            );
-        }
-    }
-    let mut renderer = Renderer::new(&device, &scene, &sources, options.clone())?;
-    if let Some(c) = &resumed {
-        renderer.resume(&c.state, c.samples(), c.strategy)?;
-        if args.verbose {
-            eprintln!(
-                "resuming {}: {} samples per pixel, {}, {:.2} s so far",
-                args.resume.as_deref().unwrap_or(Path::new("")).display(),
-                c.samples(),
-                c.strategy,
-                c.meta.seconds
-            );
-        }
-    }
-    let record = FilmRecord {
-        scene_file: args.scene.as_deref(),
-        options: &options,
-        device: &device.description.name,
-        seconds_before: resumed.as_ref().map_or(0.0, |c| c.meta.seconds),
-    };
-    if let Some(path) = &args.dump_kernel {
-        // The first program (with light sampling when that is a candidate); a second one
-        // beside it, named FILE.no-nee, when the trial may choose either.
-        for (i, e) in renderer.estimators().iter().enumerate() {
-            let file = if i == 0 {
-                path.clone()
-            } else {
-                let mut name = path.clone().into_os_string();
-                name.push(".no-nee");
-                PathBuf::from(name)
-            };
-            output::write_bytes(&file, e.program.source.text.as_bytes())?;
-        }
-    }
-    // A program that could not be cached costs its build again next time: say so always.
+    Ok(())
+}
+
+/// A program that could not be cached costs its build again next time: said once per reason
+/// (`-v` says it of every program).
+fn warn_uncached(renderer: &Renderer) {
     let mut not_cached: Vec<&str> = Vec::new();
     for (_, program) in renderer.programs() {
         if let CacheUse::NotStored(why) = &program.cache
-            && !args.verbose
             && !not_cached.contains(&why.as_str())
         {
             not_cached.push(why);
@@ -587,53 +665,59 @@ fn render(args: &RenderArgs) -> Result<u8> {
             );
         }
     }
-    if args.verbose {
-        for e in renderer.estimators() {
-            eprintln!("features ({}): {}", e.label(), e.features);
-        }
-        for (which, program) in renderer.programs() {
-            let seconds = program.build_time.as_secs_f64();
-            let origin = match &program.cache {
-                CacheUse::Off => format!("built in {seconds:.2} s (no program cache)"),
-                CacheUse::Hit(path) => {
-                    format!(
-                        "loaded from the cache in {seconds:.2} s ({})",
-                        path.display()
-                    )
-                }
-                CacheUse::Stored(path) => {
-                    format!("built in {seconds:.2} s, cached as {}", path.display())
-                }
-                CacheUse::NotStored(why) => {
-                    format!("built in {seconds:.2} s, not cached: {why}")
-                }
-            };
-            eprintln!("program ({which}): {origin}, options `{}`", program.options);
-        }
-        let candidates: Vec<String> = renderer
-            .candidates()
-            .iter()
-            .map(|c| c.to_string())
-            .collect();
-        eprintln!("estimators tried: {}", candidates.join("; "));
-        eprintln!(
-            "scene: {} ({}x{}), {} materials, {} spheres, {} planes, {} mesh instances, {} transforms",
-            scene.source,
-            renderer.width(),
-            renderer.height(),
-            renderer.packed.materials.len(),
-            renderer.packed.spheres.len(),
-            renderer.packed.planes.len(),
-            renderer.packed.mesh_instances.len(),
-            renderer.packed.transforms.len()
-        );
-        eprintln!("{}", renderer.packed.textures.report());
-        eprintln!("{}", renderer.packed.mesh_report());
+}
+
+/// `-v`: the features, programs, estimators and scene the render runs with.
+fn print_setup(scene: &Scene, renderer: &Renderer) {
+    for e in renderer.estimators() {
+        eprintln!("features ({}): {}", e.label(), e.features);
     }
-    let bar = if args.quiet {
+    for (which, program) in renderer.programs() {
+        let seconds = program.build_time.as_secs_f64();
+        let origin = match &program.cache {
+            CacheUse::Off => format!("built in {seconds:.2} s (no program cache)"),
+            CacheUse::Hit(path) => {
+                format!(
+                    "loaded from the cache in {seconds:.2} s ({})",
+                    path.display()
+                )
+            }
+            CacheUse::Stored(path) => {
+                format!("built in {seconds:.2} s, cached as {}", path.display())
+            }
+            CacheUse::NotStored(why) => {
+                format!("built in {seconds:.2} s, not cached: {why}")
+            }
+        };
+        eprintln!("program ({which}): {origin}, options `{}`", program.options);
+    }
+    let candidates: Vec<String> = renderer
+        .candidates()
+        .iter()
+        .map(|c| c.to_string())
+        .collect();
+    eprintln!("estimators tried: {}", candidates.join("; "));
+    eprintln!(
+        "scene: {} ({}x{}), {} materials, {} spheres, {} planes, {} mesh instances, {} transforms",
+        scene.source,
+        renderer.width(),
+        renderer.height(),
+        renderer.packed.materials.len(),
+        renderer.packed.spheres.len(),
+        renderer.packed.planes.len(),
+        renderer.packed.mesh_instances.len(),
+        renderer.packed.transforms.len()
+    );
+    eprintln!("{}", renderer.packed.textures.report());
+    eprintln!("{}", renderer.packed.mesh_report());
+}
+
+/// The progress bar: samples done of `spp`, or a spinner when the render has no sample count.
+fn progress_bar(quiet: bool, spp: Option<u32>) -> Result<ProgressBar> {
+    Ok(if quiet {
         ProgressBar::hidden()
     } else {
-        match options.spp {
+        match spp {
             Some(n) => ProgressBar::new(n as u64).with_style(
                 ProgressStyle::with_template(
                     "{elapsed_precise} [{bar:40}] {pos}/{len} spp  {msg}  ETA {eta}",
@@ -644,11 +728,23 @@ fn render(args: &RenderArgs) -> Result<u8> {
                 "{elapsed_precise} {spinner} {pos} spp  {msg}",
             )?),
         }
-    };
+    })
+}
+
+/// The render's passes, with the progress bar and the checkpoint kept up as they end: every
+/// `--checkpoint-every` seconds with `--checkpoint`, and at once when a signal stops the render.
+fn render_with_checkpoints(
+    args: &RenderArgs,
+    checkpoint: &Path,
+    bar: &ProgressBar,
+    stop: &StopSignals,
+    record: &FilmRecord,
+    renderer: &mut Renderer,
+) -> Result<(Film, RenderStats)> {
     let every = Duration::from_secs_f64(args.checkpoint_every);
     let mut last_checkpoint = Instant::now();
     let mut writer = BackgroundWriter::default();
-    let (film, stats) = renderer.render_with(&mut |p: &Progress, r: &Renderer| {
+    let done = renderer.render_with(&mut |p: &Progress, r: &Renderer| {
         bar.set_position(p.spp_done as u64);
         let spp_per_second = p.spp_done as f64 / p.elapsed.as_secs_f64().max(1e-9);
         let error = p.estimate.map_or(String::new(), |e| {
@@ -666,11 +762,11 @@ fn render(args: &RenderArgs) -> Result<u8> {
         if signalled {
             // The last checkpoint before exiting: written here and now, after any in flight.
             writer.wait()?;
-            record.write(&checkpoint, r, p.strategy, p.spp_done, seconds)?;
+            record.write(checkpoint, r, p.strategy, p.spp_done, seconds)?;
         } else if args.checkpoint.is_some() && last_checkpoint.elapsed() >= every {
             record.write_in_background(
                 &mut writer,
-                &checkpoint,
+                checkpoint,
                 r,
                 p.strategy,
                 p.spp_done,
@@ -685,25 +781,44 @@ fn render(args: &RenderArgs) -> Result<u8> {
         })
     })?;
     writer.wait()?;
-    bar.finish_and_clear();
-    film.write(&output)?;
+    Ok(done)
+}
+
+/// The image and every other output asked for: the film file, the last checkpoint, the report
+/// and the plot (titled `title`).
+fn write_outputs(
+    args: &RenderArgs,
+    outputs: &RenderOutputs,
+    record: &FilmRecord,
+    renderer: &Renderer,
+    (film, stats): (&Film, &RenderStats),
+    title: &str,
+) -> Result<()> {
+    film.write(&outputs.image)?;
     let (strategy, seconds) = (stats.choice.strategy(), stats.elapsed.as_secs_f64());
     if let Some(path) = &args.film {
-        record.write(path, &renderer, strategy, film.spp, seconds)?;
+        record.write(path, renderer, strategy, film.spp, seconds)?;
     }
     if args.checkpoint.is_some() && !stats.stopped {
-        record.write(&checkpoint, &renderer, strategy, film.spp, seconds)?;
+        record.write(&outputs.checkpoint, renderer, strategy, film.spp, seconds)?;
     }
     if let Some(path) = &args.report {
         report::write_report(path, &stats.report, &stats.choice)?;
     }
     if let Some(path) = &args.plot {
-        plots::write_plot(
-            path,
-            &stats.report,
-            &format!("{} on {}", scene.source, device.description.name),
-        )?;
+        plots::write_plot(path, &stats.report, title)?;
     }
+    Ok(())
+}
+
+/// What the render did: its estimator, samples left out, the error reached, its figures.
+fn print_summary(
+    args: &RenderArgs,
+    options: &RenderOptions,
+    image: &Path,
+    film: &Film,
+    stats: &RenderStats,
+) {
     eprintln!("estimator: {}", stats.choice);
     if args.verbose && stats.choice.was_measured() {
         for line in stats.choice.trial_lines() {
@@ -758,7 +873,7 @@ fn render(args: &RenderArgs) -> Result<u8> {
     }
     eprintln!(
         "{}: {}x{}, {} spp in {:.2} s ({:.2} Mpaths/s)",
-        output.display(),
+        image.display(),
         film.width,
         film.height,
         film.spp,
@@ -768,19 +883,6 @@ fn render(args: &RenderArgs) -> Result<u8> {
     if args.verbose {
         eprintln!("{} passes, {} launches", stats.passes, stats.launches);
     }
-    if stats.stopped {
-        let (name, status) = stop.signal();
-        let total = options.spp.map_or(String::new(), |n| format!(" of {n}"));
-        eprintln!(
-            "{name}: stopped after {}{total} samples per pixel; the image and the checkpoint {} \
-             hold them. Resume with the same command and `--resume {}`.",
-            film.spp,
-            checkpoint.display(),
-            checkpoint.display()
-        );
-        return Ok(status);
-    }
-    Ok(0)
 }
 
 /// `render --device all|A,B,...`: the samples split over several devices (render/multi.rs).

@@ -9,6 +9,7 @@ mod common;
 use clpt::accel::aabb::Aabb;
 use clpt::accel::bvh::{self, Bvh, MAX_DEPTH, morton_code};
 use clpt::contract::{BVH_EMPTY, BVH_LEAF};
+use common::traversal::BvhTraversal;
 use glam::DVec3;
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};

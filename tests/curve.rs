@@ -34,9 +34,8 @@
 
 mod common;
 
-use clpt::scene::curve::{
-    Curve, CurveKind, HORIZONTAL_THRESHOLD, RevHit, intersect_reference, revolve,
-};
+use clpt::scene::curve::{Curve, CurveKind};
+use common::curve_reference::{HORIZONTAL_THRESHOLD, RevHit, intersect_reference, revolve};
 use glam::{DVec2, DVec3};
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};

@@ -13,7 +13,8 @@
 mod common;
 
 use clpt::accel::aabb::Aabb;
-use clpt::accel::kdtree::{self, ENTRY_SLACK, KdParams, KdTree, MAX_DEPTH};
+use clpt::accel::kdtree::{ENTRY_SLACK, KdParams, KdTree, MAX_DEPTH};
+use common::traversal::{self, KdTraversal};
 use glam::DVec3;
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
@@ -39,7 +40,7 @@ impl Mesh {
     }
 
     fn vertices(&self, t: u32) -> Option<[DVec3; 3]> {
-        kdtree::triangle_vertices(&self.positions, &self.triangles, t)
+        traversal::triangle_vertices(&self.positions, &self.triangles, t)
     }
 
     /// What the tree must hold: existing, finite vertices spanning a non-zero area.
@@ -76,7 +77,7 @@ fn brute_force(
     let mut best: Option<(f64, u32)> = None;
     for (t, v) in triangles {
         let limit = best.map_or(t_max, |b| b.0);
-        if let Some(hit) = kdtree::intersect_triangle(o, d, v, t_min, limit) {
+        if let Some(hit) = traversal::intersect_triangle(o, d, v, t_min, limit) {
             best = Some((hit, *t));
         }
     }
@@ -86,7 +87,7 @@ fn brute_force(
 /// An icosahedron subdivided `levels` times onto the unit sphere (clpt's own generator),
 /// vertices shared: 20·4^levels triangles.
 fn icosphere(levels: u32) -> Mesh {
-    from_procedural(clpt::scene::procedural::icosphere(levels))
+    from_procedural(common::procedural::icosphere(levels))
 }
 
 fn from_procedural(m: clpt::scene::mesh::TriangleMesh) -> Mesh {
@@ -100,7 +101,7 @@ fn from_procedural(m: clpt::scene::mesh::TriangleMesh) -> Mesh {
 /// A torus (radii 1 and 0.3) on a `major` × `minor` grid (clpt's own generator), vertices
 /// shared.
 fn torus(major: u32, minor: u32) -> Mesh {
-    from_procedural(clpt::scene::procedural::torus(1.0, 0.3, major, minor))
+    from_procedural(common::procedural::torus(1.0, 0.3, major, minor))
 }
 
 /// `n` random triangles in [-1, 1]^3: mostly small, some long and thin, some large.
@@ -359,7 +360,7 @@ fn compare(
                 let same_t = (tg - tw).abs() <= 1e-9 * tw.abs();
                 let tie = mesh
                     .vertices(*ig)
-                    .and_then(|v| kdtree::intersect_triangle(ray.0, ray.1, &v, ray.2, ray.3))
+                    .and_then(|v| traversal::intersect_triangle(ray.0, ray.1, &v, ray.2, ray.3))
                     == Some(*tg);
                 same_t && (ig == iw || tie)
             }

@@ -1,5 +1,5 @@
 //! Surfaces of revolution on the device against the certain f64 reference of
-//! `clpt::scene::curve::intersect_reference`: for each profile (the original's goblet and vase,
+//! `common::curve_reference::intersect_reference`: for each profile (the original's goblet and vase,
 //! and a profile with a cusp on the axis), 1e6 rays each of every kind (random, along and near
 //! the axis, nearly horizontal, at the rim and the foot's edge): no false hit (a device hit more
 //! than 1e-4 of the scene's size from the surface), no missed hit (a root more than that before
@@ -15,8 +15,9 @@ use clpt::device::kernel::NamedArgs;
 use clpt::device::program::KernelSources;
 use clpt::pack::PackedScene;
 use clpt::render::{RenderOptions, Renderer};
-use clpt::scene::curve::{self, Curve, CurveKind};
+use clpt::scene::curve::{Curve, CurveKind};
 use clpt::scene::parse::parse_scene;
+use common::curve_reference;
 use glam::{DVec2, DVec3};
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
@@ -137,7 +138,10 @@ fn device_hits_match_the_f64_reference() {
                         // A point on the surface (rim, foot edge, anywhere), from any side.
                         1 | 2 => {
                             let (p, _) = curve.eval(rng.random::<f64>());
-                            curve::revolve(p, rng.random_range(0.0..std::f64::consts::TAU))
+                            curve_reference::revolve(
+                                p,
+                                rng.random_range(0.0..std::f64::consts::TAU),
+                            )
                         }
                         // The profile's ends and its extreme points: the rim and the foot's edge.
                         3 => {
@@ -146,7 +150,7 @@ fn device_hits_match_the_f64_reference() {
                             } else {
                                 rng.random_range(0.98..1.0)
                             };
-                            curve::revolve(
+                            curve_reference::revolve(
                                 curve.eval(s).0,
                                 rng.random_range(0.0..std::f64::consts::TAU),
                             )
@@ -168,7 +172,7 @@ fn device_hits_match_the_f64_reference() {
                 let mut counts = [0usize; 4];
                 let o = DVec3::new(r[0] as f64, r[1] as f64, r[2] as f64);
                 let d = DVec3::new(r[3] as f64, r[4] as f64, r[5] as f64);
-                let hits = curve::intersect_reference(&curve, o, d, 0.0, f64::INFINITY);
+                let hits = curve_reference::intersect_reference(&curve, o, d, 0.0, f64::INFINITY);
                 let tol = 1e-4 * (size + o.length());
                 if g[1] == HIT_REVSURFACE {
                     let t = g[0] as f64;
@@ -184,8 +188,14 @@ fn device_hits_match_the_f64_reference() {
                     if g[13] == HIT_REVSURFACE
                         && w.dot(n).abs() >= 0.05
                         && (g[12] as f64) < 1e-4 * size
-                        && curve::intersect_reference(&curve, p, w, 1e-9 * size, 2e-4 * size)
-                            .is_empty()
+                        && curve_reference::intersect_reference(
+                            &curve,
+                            p,
+                            w,
+                            1e-9 * size,
+                            2e-4 * size,
+                        )
+                        .is_empty()
                     {
                         counts[3] += 1;
                     }

@@ -176,65 +176,6 @@ impl Bvh {
         }
         stats
     }
-
-    /// The nearest hit of the ray `o + t d`, 0 ≤ t < `t_max`, among the objects in the tree, as
-    /// (t, object). Calls `hit(object, t_nearest)` for each object whose box the ray enters
-    /// before the nearest hit found so far; `hit` returns the object's hit distance, if any.
-    ///
-    /// Explicit stack, nearer child first: the reference of the device traversal.
-    pub fn intersect(
-        &self,
-        o: DVec3,
-        d: DVec3,
-        t_max: f64,
-        mut hit: impl FnMut(u32, f64) -> Option<f64>,
-    ) -> Option<(f64, u32)> {
-        if self.nodes.is_empty() {
-            return None;
-        }
-        let mut nearest = None;
-        let mut t_nearest = t_max;
-        // Children whose box the ray entered, with the entry distance: one queued before a
-        // nearer hit was found is dropped when popped if it now starts beyond that hit.
-        let mut stack: Vec<(u32, f64)> = Vec::with_capacity(MAX_DEPTH as usize + 1);
-        stack.push((0, 0.0));
-        while let Some((child, t_enter)) = stack.pop() {
-            if t_enter >= t_nearest {
-                continue;
-            }
-            if child & BVH_LEAF != 0 {
-                let object = child & !BVH_LEAF;
-                if let Some(t) = hit(object, t_nearest)
-                    && t < t_nearest
-                {
-                    t_nearest = t;
-                    nearest = Some((t, object));
-                }
-                continue;
-            }
-            let node = &self.nodes[child as usize];
-            let mut entered = [None; 2];
-            for (k, slot) in entered.iter_mut().enumerate() {
-                // The empty slot must be skipped by its reference, not by its box: the slab test
-                // swaps an inverted box's planes and then accepts every ray.
-                if node.child[k] != BVH_EMPTY {
-                    *slot = child_box(node, k)
-                        .clip_ray(o, d, 0.0, t_nearest)
-                        .map(|(t0, _)| (node.child[k], t0));
-                }
-            }
-            match entered {
-                [Some(a), Some(b)] => {
-                    let (near, far) = if b.1 < a.1 { (b, a) } else { (a, b) };
-                    stack.push(far);
-                    stack.push(near);
-                }
-                [Some(one), None] | [None, Some(one)] => stack.push(one),
-                [None, None] => {}
-            }
-        }
-        nearest
-    }
 }
 
 /// The 30-bit Morton code of a point normalised to [0, 1]³: each coordinate quantised to 10

@@ -133,14 +133,17 @@ pub struct LightSources<'a> {
 /// The light list, sorted by (kind, index, triangle), its `prob` and `cdf` filled in; its
 /// plane emitters clipped to `room` and its emitters wholly outside it dropped (module doc).
 pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
-    let mut lights = Vec::new();
-    let mut powers = Vec::new();
-    let mut push = |light: Light, power: f64| {
-        if power > 0.0 && power.is_finite() {
-            lights.push(light);
-            powers.push(power);
-        }
-    };
+    let mut emitters = Vec::new();
+    sphere_lights(scene, room, &mut emitters);
+    plane_lights(scene, room, &mut emitters);
+    mesh_lights(scene, room, &mut emitters);
+    emitters.retain(|(_, power)| *power > 0.0 && power.is_finite());
+    pick_by_power(emitters)
+}
+
+/// The emitting spheres of uniform scale (an ellipsoid is left to BSDF sampling), each with
+/// the power of what some path can see of it.
+fn sphere_lights(scene: &LightSources, room: Option<&Room>, out: &mut Vec<(Light, f64)>) {
     for (i, s) in scene.spheres.iter().enumerate() {
         let Some(le) = constant_emission(scene.materials, s.material) else {
             continue;
@@ -171,8 +174,13 @@ pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
                 light.area = area as f32;
             }
         }
-        push(light, PI * le * area);
+        out.push((light, PI * le * area));
     }
+}
+
+/// The emitting axis-aligned planes, each as the square its range keeps (clipped to the room),
+/// with its power.
+fn plane_lights(scene: &LightSources, room: Option<&Room>, out: &mut Vec<(Light, f64)>) {
     for (i, p) in scene.planes.iter().enumerate() {
         let Some(le) = constant_emission(scene.materials, p.material) else {
             continue;
@@ -225,8 +233,12 @@ pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
             solid_angle: u32::from(room.is_some_and(|room| room.walls.contains(&(i as u32)))),
             ..Light::default()
         };
-        push(light, PI * le * area);
+        out.push((light, PI * le * area));
     }
+}
+
+/// Every triangle of the emitting meshes that some path can see, with its power (both sides).
+fn mesh_lights(scene: &LightSources, room: Option<&Room>, out: &mut Vec<(Light, f64)>) {
     for (i, inst) in scene.mesh_instances.iter().enumerate() {
         let Some(le) = constant_emission(scene.materials, inst.material) else {
             continue;
@@ -262,9 +274,15 @@ pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
                 area: area as f32,
                 ..Light::default()
             };
-            push(light, 2.0 * PI * le * area);
+            out.push((light, 2.0 * PI * le * area));
         }
     }
+}
+
+/// The light list: entries sorted by (kind, index, triangle), so that a hit finds its own by
+/// binary search (nee.h), each picked with probability proportional to its power.
+fn pick_by_power(emitters: Vec<(Light, f64)>) -> Vec<Light> {
+    let (lights, powers): (Vec<Light>, Vec<f64>) = emitters.into_iter().unzip();
     let mut order: Vec<usize> = (0..lights.len()).collect();
     order.sort_by_key(|&i| (lights[i].kind, lights[i].index, lights[i].triangle));
     let total: f64 = powers.iter().sum();

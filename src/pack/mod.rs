@@ -33,6 +33,7 @@ use crate::contract::{
 };
 use crate::error::{Error, Result};
 use crate::scene::camera::CameraBasis;
+use crate::scene::curve::Curve;
 use crate::scene::mesh::{self, TriangleMesh};
 use crate::scene::texture::TexturePack;
 use crate::scene::{MaterialKind, Scene, Shape};
@@ -113,6 +114,49 @@ fn transform_box(b: &Aabb, m: Option<&DMat4>) -> Aabb {
     }))
 }
 
+/// Where an object goes on the device: its transform there (the scene's, then the move to the
+/// camera-relative origin), that move alone, and the shift of an untransformed object's own
+/// coordinates (module doc).
+struct Placement<'a> {
+    transform: Option<&'a DMat4>,
+    to_device: &'a DMat4,
+    shift: DVec3,
+}
+
+/// A scene plane as written (`Shape::Plane`).
+struct PlaneShape {
+    normal: DVec3,
+    offset: f64,
+    range: f64,
+    centerp: DVec3,
+    dir_u: DVec3,
+    dir_v: DVec3,
+}
+
+/// The scene's materials, each with its texture maps' indices.
+fn pack_materials(scene: &Scene, textures: &TexturePack) -> Vec<Material> {
+    scene
+        .materials
+        .iter()
+        .zip(&textures.material_maps)
+        .map(
+            |(m, &[color_map, emission_map, type_map, bump_map])| Material {
+                emission: f32x3(m.emission),
+                color: f32x3(m.color),
+                kind: match m.kind {
+                    MaterialKind::Diffuse => contract::MATERIAL_DIFFUSE,
+                    MaterialKind::Specular => contract::MATERIAL_SPECULAR,
+                    MaterialKind::Refractive => contract::MATERIAL_REFRACTIVE,
+                },
+                color_map,
+                emission_map,
+                type_map,
+                bump_map,
+            },
+        )
+        .collect()
+}
+
 impl PackedScene {
     /// Packs `scene` with OBJ files of at most [`mesh::DEFAULT_MAX_FILE_BYTES`], meshes in
     /// kd-trees ([`PackedScene::with_limits`]).
@@ -146,26 +190,7 @@ impl PackedScene {
         };
         // Object-to-device transforms: the scene's, then the move to the camera-relative origin.
         let to_device = DMat4::from_translation(-origin);
-        packed.materials = scene
-            .materials
-            .iter()
-            .zip(&textures.material_maps)
-            .map(
-                |(m, &[color_map, emission_map, type_map, bump_map])| Material {
-                    emission: f32x3(m.emission),
-                    color: f32x3(m.color),
-                    kind: match m.kind {
-                        MaterialKind::Diffuse => contract::MATERIAL_DIFFUSE,
-                        MaterialKind::Specular => contract::MATERIAL_SPECULAR,
-                        MaterialKind::Refractive => contract::MATERIAL_REFRACTIVE,
-                    },
-                    color_map,
-                    emission_map,
-                    type_map,
-                    bump_map,
-                },
-            )
-            .collect();
+        packed.materials = pack_materials(scene, &textures);
         packed.textures = textures;
         // Each OBJ file's mesh, by whether its vertices are moved to the device's origin.
         let mut loaded: HashMap<(PathBuf, bool), u32> = HashMap::new();
@@ -181,26 +206,19 @@ impl PackedScene {
             let material = object.material as u32;
             let before = packed.counts();
             let placed = object.transform.map(|m| to_device * m);
-            let transform = placed.as_ref();
-            // Where an untransformed object's coordinates go on the device.
-            let shift = if transform.is_some() {
-                DVec3::ZERO
-            } else {
-                -origin
+            let at = Placement {
+                transform: placed.as_ref(),
+                to_device: &to_device,
+                // Where an untransformed object's coordinates go on the device.
+                shift: if placed.is_some() {
+                    DVec3::ZERO
+                } else {
+                    -origin
+                },
             };
             match &object.shape {
                 Shape::Sphere { center, radius } => {
-                    let (center, center_lo) = split_f32x3(*center + shift);
-                    let (radius, radius_lo) = split_f32(*radius);
-                    let sphere = Sphere {
-                        center,
-                        radius,
-                        center_lo,
-                        radius_lo,
-                        material,
-                        transform: packed.push_transform(transform),
-                    };
-                    packed.push_sphere(sphere, transform);
+                    packed.pack_sphere(*center, *radius, material, &at);
                 }
                 Shape::Plane {
                     normal,
@@ -210,61 +228,17 @@ impl PackedScene {
                     dir_u,
                     dir_v,
                 } => {
-                    // n.p = offset with n as written: the unit normal, and the offset through
-                    // the box centre with that normal as rounded, so that its rounding tilts
-                    // the plane about the centre (on the part a ray can meet) rather than about
-                    // the origin (module doc).
-                    let len = normal.length();
-                    let unit = f32x3(*normal / len);
-                    let center = (*normal / len) * (*offset / len) + shift;
-                    let plane = Plane {
-                        normal: unit,
-                        offset: DVec3::from(unit.map(f64::from)).dot(center) as f32,
-                        range: *range as f32,
-                        center: f32x3(center),
-                        centerp: f32x3(*centerp + shift),
-                        dir_u: f32x3(*dir_u),
-                        dir_v: f32x3(*dir_v),
-                        material,
-                        transform: packed.push_transform(transform),
+                    let plane = PlaneShape {
+                        normal: *normal,
+                        offset: *offset,
+                        range: *range,
+                        centerp: *centerp,
+                        dir_u: *dir_u,
+                        dir_v: *dir_v,
                     };
-                    packed.push_plane(plane, transform);
+                    packed.pack_plane(&plane, material, &at);
                 }
-                Shape::RevSurface { curve } => {
-                    let segments = curve.bezier_segments();
-                    let points = || segments.iter().flatten();
-                    // Heights centred on 0, the shift folded into the transform (module doc).
-                    let (y_min, y_max) = points()
-                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-                            (lo.min(p.y), hi.max(p.y))
-                        });
-                    let y_mid = 0.5 * (y_min + y_max);
-                    let placement = DMat4::from_translation(DVec3::new(0.0, y_mid, 0.0));
-                    let centred = Some(placed.unwrap_or(to_device) * placement)
-                        .filter(|m| *m != DMat4::IDENTITY);
-                    let stored: Vec<[f32; 2]> = points()
-                        .map(|p| [p.x as f32, (p.y - y_mid) as f32])
-                        .collect();
-                    let (radius, y_lo, y_hi) = stored.iter().fold(
-                        (0.0f32, f32::INFINITY, f32::NEG_INFINITY),
-                        |(r, lo, hi), p| (r.max(p[0].abs()), lo.min(p[1]), hi.max(p[1])),
-                    );
-                    let revsurface = RevSurface {
-                        first_point: packed.rev_points.len() as u32,
-                        num_segments: segments.len() as u32,
-                        degree: curve.degree() as u32,
-                        material,
-                        transform: packed.push_transform(centred.as_ref()),
-                        radius,
-                        y_lo,
-                        y_hi,
-                    };
-                    packed.rev_points.extend(stored);
-                    let world = placed.unwrap_or(to_device);
-                    let b = transform_box(&curve.revolution_bounds(), Some(&world));
-                    packed.push_object(contract::OBJECT_REVSURFACE, packed.revsurfaces.len(), b);
-                    packed.revsurfaces.push(revsurface);
-                }
+                Shape::RevSurface { curve } => packed.pack_revsurface(curve, material, &at),
                 Shape::Mesh { file } => {
                     let path = crate::scene::resolve(
                         "mesh",
@@ -272,38 +246,8 @@ impl PackedScene {
                         scene.base_dir.as_deref(),
                         &object.location,
                     )?;
-                    let key = (path, transform.is_none());
-                    let mesh = match loaded.get(&key) {
-                        Some(&m) => m,
-                        None => {
-                            let mut mesh = TriangleMesh::load_within(&key.0, max_mesh_bytes)?;
-                            if shift != DVec3::ZERO {
-                                for v in &mut mesh.positions {
-                                    *v = f32x3(DVec3::from(v.map(f64::from)) + shift);
-                                }
-                            }
-                            let m = packed.push_mesh(mesh)?;
-                            loaded.insert(key, m);
-                            m
-                        }
-                    };
-                    packed.mesh_info[mesh as usize].instances += 1;
-                    let instance = MeshInstance {
-                        mesh,
-                        transform: packed.push_transform(transform),
-                        material,
-                    };
-                    let desc = &packed.meshes[mesh as usize];
-                    let bounds = Aabb {
-                        lo: DVec3::from(desc.lo.map(f64::from)),
-                        hi: DVec3::from(desc.hi.map(f64::from)),
-                    };
-                    packed.push_object(
-                        contract::OBJECT_MESH,
-                        packed.mesh_instances.len(),
-                        transform_box(&bounds, transform),
-                    );
-                    packed.mesh_instances.push(instance);
+                    let mesh = packed.mesh_once(path, &at, &mut loaded, max_mesh_bytes)?;
+                    packed.pack_mesh_instance(mesh, material, &at);
                 }
             }
             if !packed.finite_since(before) {
@@ -354,6 +298,127 @@ impl PackedScene {
             .all(|x| x.m.iter().chain(&x.inv).all(finite))
             && self.vertices[v..].iter().flatten().all(finite)
             && self.rev_points[r..].iter().flatten().all(finite)
+    }
+
+    /// A sphere: centre and radius as double-floats, the centre moved to the device's origin
+    /// (module doc).
+    fn pack_sphere(&mut self, center: DVec3, radius: f64, material: u32, at: &Placement) {
+        let (center, center_lo) = split_f32x3(center + at.shift);
+        let (radius, radius_lo) = split_f32(radius);
+        let sphere = Sphere {
+            center,
+            radius,
+            center_lo,
+            radius_lo,
+            material,
+            transform: self.push_transform(at.transform),
+        };
+        self.push_sphere(sphere, at.transform);
+    }
+
+    /// A plane: its unit normal and, through its box centre, its offset (module doc).
+    fn pack_plane(&mut self, p: &PlaneShape, material: u32, at: &Placement) {
+        // n.p = offset with n as written: the unit normal, and the offset through
+        // the box centre with that normal as rounded, so that its rounding tilts
+        // the plane about the centre (on the part a ray can meet) rather than about
+        // the origin (module doc).
+        let len = p.normal.length();
+        let unit = f32x3(p.normal / len);
+        let center = (p.normal / len) * (p.offset / len) + at.shift;
+        let plane = Plane {
+            normal: unit,
+            offset: DVec3::from(unit.map(f64::from)).dot(center) as f32,
+            range: p.range as f32,
+            center: f32x3(center),
+            centerp: f32x3(p.centerp + at.shift),
+            dir_u: f32x3(p.dir_u),
+            dir_v: f32x3(p.dir_v),
+            material,
+            transform: self.push_transform(at.transform),
+        };
+        self.push_plane(plane, at.transform);
+    }
+
+    /// A surface of revolution: its profile's Bezier segments, heights centred on 0.
+    fn pack_revsurface(&mut self, curve: &Curve, material: u32, at: &Placement) {
+        let segments = curve.bezier_segments();
+        let points = || segments.iter().flatten();
+        // Heights centred on 0, the shift folded into the transform (module doc).
+        let (y_min, y_max) = points().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.y), hi.max(p.y))
+        });
+        let y_mid = 0.5 * (y_min + y_max);
+        let placement = DMat4::from_translation(DVec3::new(0.0, y_mid, 0.0));
+        let centred = Some(at.transform.copied().unwrap_or(*at.to_device) * placement)
+            .filter(|m| *m != DMat4::IDENTITY);
+        let stored: Vec<[f32; 2]> = points()
+            .map(|p| [p.x as f32, (p.y - y_mid) as f32])
+            .collect();
+        let (radius, y_lo, y_hi) = stored.iter().fold(
+            (0.0f32, f32::INFINITY, f32::NEG_INFINITY),
+            |(r, lo, hi), p| (r.max(p[0].abs()), lo.min(p[1]), hi.max(p[1])),
+        );
+        let revsurface = RevSurface {
+            first_point: self.rev_points.len() as u32,
+            num_segments: segments.len() as u32,
+            degree: curve.degree() as u32,
+            material,
+            transform: self.push_transform(centred.as_ref()),
+            radius,
+            y_lo,
+            y_hi,
+        };
+        self.rev_points.extend(stored);
+        let world = at.transform.copied().unwrap_or(*at.to_device);
+        let b = transform_box(&curve.revolution_bounds(), Some(&world));
+        self.push_object(contract::OBJECT_REVSURFACE, self.revsurfaces.len(), b);
+        self.revsurfaces.push(revsurface);
+    }
+
+    /// The mesh of OBJ file `path`, loaded and pushed once for each way it is placed (its
+    /// vertices moved to the device's origin, or left for a transform to move): `loaded` holds
+    /// those already pushed.
+    fn mesh_once(
+        &mut self,
+        path: PathBuf,
+        at: &Placement,
+        loaded: &mut HashMap<(PathBuf, bool), u32>,
+        max_mesh_bytes: u64,
+    ) -> Result<u32> {
+        let key = (path, at.transform.is_none());
+        if let Some(&m) = loaded.get(&key) {
+            return Ok(m);
+        }
+        let mut mesh = TriangleMesh::load_within(&key.0, max_mesh_bytes)?;
+        if at.shift != DVec3::ZERO {
+            for v in &mut mesh.positions {
+                *v = f32x3(DVec3::from(v.map(f64::from)) + at.shift);
+            }
+        }
+        let m = self.push_mesh(mesh)?;
+        loaded.insert(key, m);
+        Ok(m)
+    }
+
+    /// An instance of mesh `mesh` (already pushed), with its world box in the object table.
+    fn pack_mesh_instance(&mut self, mesh: u32, material: u32, at: &Placement) {
+        self.mesh_info[mesh as usize].instances += 1;
+        let instance = MeshInstance {
+            mesh,
+            transform: self.push_transform(at.transform),
+            material,
+        };
+        let desc = &self.meshes[mesh as usize];
+        let bounds = Aabb {
+            lo: DVec3::from(desc.lo.map(f64::from)),
+            hi: DVec3::from(desc.hi.map(f64::from)),
+        };
+        self.push_object(
+            contract::OBJECT_MESH,
+            self.mesh_instances.len(),
+            transform_box(&bounds, at.transform),
+        );
+        self.mesh_instances.push(instance);
     }
 
     /// A scene of untransformed spheres and planes made in code (tests, probes), in device

@@ -454,15 +454,8 @@ pub struct Renderer<'d> {
     trial: Option<trial::TrialKernels>,
     // The kernels hold these buffers' handles; they live as long as the kernels do.
     scene_buffers: SceneBuffers,
-    /// The film: per pixel the sums of the samples (`sum` + `sum_lo`, compensated), of their
-    /// squares, and of the odd groups' samples (`sum_odd` + `sum_odd_lo`), float4 each.
-    sum: ocl::Buffer<f32>,
-    sum_lo: ocl::Buffer<f32>,
-    sum_sq: ocl::Buffer<f32>,
-    sum_odd: ocl::Buffer<f32>,
-    sum_odd_lo: ocl::Buffer<f32>,
-    bad: ocl::Buffer<u32>,
-    bad_first: ocl::Buffer<u32>,
+    /// The film on the device.
+    film: DeviceFilm,
     /// Samples per pixel the film already holds when the next render starts ([`Self::resume`]).
     start_samples: u32,
     /// How the last render launched its passes, and for which strategy: the next render of
@@ -606,6 +599,131 @@ impl ErrorKernel {
     }
 }
 
+/// Refuses a render that could not end or not fit before any work: one with no sample count,
+/// time limit or target error, a shard not starting at a group of eight, a film too large.
+fn check_request(device: &Device, scene: &Scene, options: &RenderOptions) -> Result<()> {
+    if options.spp.is_none() && options.time_limit.is_none() && options.target_error.is_none() {
+        return Err(Error::Invalid(
+            "a render needs a sample count, a time limit or a target error".into(),
+        ));
+    }
+    if !options.first_sample.is_multiple_of(8) {
+        return Err(Error::Invalid(format!(
+            "the first sample {} is not a multiple of 8: a shard holds whole groups of eight",
+            options.first_sample
+        )));
+    }
+    memory::check_film_fits(
+        &device.description,
+        scene.camera.width,
+        scene.camera.height,
+        crate::input::host_available_bytes(),
+    )
+}
+
+/// What the program holds: the scene's features (or all), the lanes a work-item carries and
+/// whether meshes are walked through 8-wide BVHs.
+fn program_shape(
+    device: &Device,
+    scene: &Scene,
+    options: &RenderOptions,
+) -> Result<(Features, u32, bool)> {
+    // Leave out what the scene does not need (features.rs, kernels/features.h); the mesh
+    // tree is packed for the program (MeshTree).
+    let base_features = if options.all_features {
+        Features::all(scene, options.object_bvh)
+    } else {
+        Features::of(scene, options.object_bvh)
+    };
+    let lanes = base_features.wide_lanes(&device.description, options.lanes);
+    let wide_bvh = match options.mesh_tree {
+        Some(MeshTree::Kd) if lanes > 1 => {
+            return Err(Error::Invalid(format!(
+                "a wide program ({lanes} lanes) walks meshes through 8-wide BVHs: \
+                 --mesh-tree kd takes --lanes 1"
+            )));
+        }
+        Some(tree) => tree == MeshTree::Wide,
+        None => MeshTree::default_on(&device.description) == MeshTree::Wide,
+    };
+    Ok((base_features, lanes, wide_bvh))
+}
+
+/// The film on the device: per pixel the sums of the samples (`sum` + `sum_lo`, compensated),
+/// of their squares, and of the odd groups' samples (`sum_odd` + `sum_odd_lo`), float4 each,
+/// and the counts of non-finite samples left out (`bad`, with the first one's index in
+/// `bad_first`).
+struct DeviceFilm {
+    sum: ocl::Buffer<f32>,
+    sum_lo: ocl::Buffer<f32>,
+    sum_sq: ocl::Buffer<f32>,
+    sum_odd: ocl::Buffer<f32>,
+    sum_odd_lo: ocl::Buffer<f32>,
+    bad: ocl::Buffer<u32>,
+    bad_first: ocl::Buffer<u32>,
+}
+
+impl DeviceFilm {
+    /// A cleared film of `width` x `height` pixels.
+    fn new(device: &Device, width: u32, height: u32) -> Result<DeviceFilm> {
+        let pixels = width as usize * height as usize;
+        let fail = |e: ocl::Error| Error::opencl("allocating the film", e);
+        let sums = || {
+            ocl::Buffer::<f32>::builder()
+                .queue(device.queue.clone())
+                .len(pixels * 4)
+                .fill_val(0.0f32)
+                .build()
+                .map_err(fail)
+        };
+        let counters = || {
+            ocl::Buffer::<u32>::builder()
+                .queue(device.queue.clone())
+                .len(pixels)
+                .fill_val(0u32)
+                .build()
+                .map_err(fail)
+        };
+        Ok(DeviceFilm {
+            sum: sums()?,
+            sum_lo: sums()?,
+            sum_sq: sums()?,
+            sum_odd: sums()?,
+            sum_odd_lo: sums()?,
+            bad: counters()?,
+            bad_first: counters()?,
+        })
+    }
+}
+
+/// `render_pass` of `program` bound to the scene and the film; the launch's rows and samples
+/// are set before each launch.
+fn render_kernel(
+    device: &Device,
+    program: &ocl::Program,
+    scene: &SceneBuffers,
+    film: &DeviceFilm,
+) -> Result<ocl::Kernel> {
+    NamedArgs::new(program, "render_pass", &device.queue)
+        .global_work_size([GROUP, GROUP])
+        .scene(scene)
+        .buffer("sum", &film.sum)
+        .buffer("sum_lo", &film.sum_lo)
+        .buffer("sum_sq", &film.sum_sq)
+        .buffer("sum_odd", &film.sum_odd)
+        .buffer("sum_odd_lo", &film.sum_odd_lo)
+        .buffer("bad", &film.bad)
+        .buffer("bad_first", &film.bad_first)
+        .scalar("sample_start", 0u32)
+        .scalar("sample_count", 0u32)
+        .scalar("row_start", 0u32)
+        .scalar("row_count", 0u32)
+        .scalar("row_step", 1u32)
+        .scalar("col_start", 0u32)
+        .scalar("col_step", 1u32)
+        .build()
+}
+
 impl<'d> Renderer<'d> {
     pub fn new(
         device: &'d Device,
@@ -613,41 +731,8 @@ impl<'d> Renderer<'d> {
         sources: &KernelSources,
         options: RenderOptions,
     ) -> Result<Self> {
-        if options.spp.is_none() && options.time_limit.is_none() && options.target_error.is_none() {
-            return Err(Error::Invalid(
-                "a render needs a sample count, a time limit or a target error".into(),
-            ));
-        }
-        if !options.first_sample.is_multiple_of(8) {
-            return Err(Error::Invalid(format!(
-                "the first sample {} is not a multiple of 8: a shard holds whole groups of eight",
-                options.first_sample
-            )));
-        }
-        memory::check_film_fits(
-            &device.description,
-            scene.camera.width,
-            scene.camera.height,
-            crate::input::host_available_bytes(),
-        )?;
-        // Leave out what the scene does not need (features.rs, kernels/features.h); the mesh
-        // tree is packed for the program (MeshTree).
-        let base_features = if options.all_features {
-            Features::all(scene, options.object_bvh)
-        } else {
-            Features::of(scene, options.object_bvh)
-        };
-        let lanes = base_features.wide_lanes(&device.description, options.lanes);
-        let wide_bvh = match options.mesh_tree {
-            Some(MeshTree::Kd) if lanes > 1 => {
-                return Err(Error::Invalid(format!(
-                    "a wide program ({lanes} lanes) walks meshes through 8-wide BVHs: \
-                     --mesh-tree kd takes --lanes 1"
-                )));
-            }
-            Some(tree) => tree == MeshTree::Wide,
-            None => MeshTree::default_on(&device.description) == MeshTree::Wide,
-        };
+        check_request(device, scene, &options)?;
+        let (base_features, lanes, wide_bvh) = program_shape(device, scene, &options)?;
         let packed = PackedScene::with_limits(
             scene,
             options.max_texture_pixels,
@@ -666,27 +751,7 @@ impl<'d> Renderer<'d> {
             !packed.lights.is_empty(),
         );
         let scene_buffers = SceneBuffers::new(device, &packed, &params)?;
-        let pixels = packed.camera.width as usize * packed.camera.height as usize;
-        let fail = |e: ocl::Error| Error::opencl("allocating the film", e);
-        let film_buffer = || {
-            ocl::Buffer::<f32>::builder()
-                .queue(device.queue.clone())
-                .len(pixels * 4)
-                .fill_val(0.0f32)
-                .build()
-                .map_err(fail)
-        };
-        let counter_buffer = || {
-            ocl::Buffer::<u32>::builder()
-                .queue(device.queue.clone())
-                .len(pixels)
-                .fill_val(0u32)
-                .build()
-                .map_err(fail)
-        };
-        let (sum, sum_lo, sum_sq) = (film_buffer()?, film_buffer()?, film_buffer()?);
-        let (sum_odd, sum_odd_lo) = (film_buffer()?, film_buffer()?);
-        let (bad, bad_first) = (counter_buffer()?, counter_buffer()?);
+        let film = DeviceFilm::new(device, packed.camera.width, packed.camera.height)?;
         // One program per light-sampling setting the candidates need, light sampling first.
         let mut estimators = Vec::new();
         for light_sampling in [true, false] {
@@ -709,24 +774,7 @@ impl<'d> Renderer<'d> {
                 &features.defines(),
                 options.cache_dir.as_deref(),
             )?;
-            let kernel = NamedArgs::new(&program.program, "render_pass", &device.queue)
-                .global_work_size([GROUP, GROUP])
-                .scene(&scene_buffers)
-                .buffer("sum", &sum)
-                .buffer("sum_lo", &sum_lo)
-                .buffer("sum_sq", &sum_sq)
-                .buffer("sum_odd", &sum_odd)
-                .buffer("sum_odd_lo", &sum_odd_lo)
-                .buffer("bad", &bad)
-                .buffer("bad_first", &bad_first)
-                .scalar("sample_start", 0u32)
-                .scalar("sample_count", 0u32)
-                .scalar("row_start", 0u32)
-                .scalar("row_count", 0u32)
-                .scalar("row_step", 1u32)
-                .scalar("col_start", 0u32)
-                .scalar("col_step", 1u32)
-                .build()?;
+            let kernel = render_kernel(device, &program.program, &scene_buffers, &film)?;
             estimators.push(Estimator {
                 light_sampling,
                 features,
@@ -738,7 +786,7 @@ impl<'d> Renderer<'d> {
             device,
             &estimators[0].program.program,
             &packed,
-            [&sum, &sum_lo, &sum_odd, &sum_odd_lo],
+            [&film.sum, &film.sum_lo, &film.sum_odd, &film.sum_odd_lo],
             &options,
         )?;
         let trial = if candidates.len() > 1 {
@@ -746,7 +794,13 @@ impl<'d> Renderer<'d> {
                 device,
                 sources,
                 options.cache_dir.as_deref(),
-                [&sum, &sum_odd, &sum_lo, &sum_sq, &sum_odd_lo],
+                [
+                    &film.sum,
+                    &film.sum_odd,
+                    &film.sum_lo,
+                    &film.sum_sq,
+                    &film.sum_odd_lo,
+                ],
                 packed.camera.width,
             )?)
         } else {
@@ -763,13 +817,7 @@ impl<'d> Renderer<'d> {
             errors,
             trial,
             scene_buffers,
-            sum,
-            sum_lo,
-            sum_sq,
-            sum_odd,
-            sum_odd_lo,
-            bad,
-            bad_first,
+            film,
             start_samples: 0,
             launch_plan: None,
             options,
@@ -886,15 +934,15 @@ impl<'d> Renderer<'d> {
     fn clear_film(&self) -> Result<()> {
         let fail = |e: ocl::Error| Error::opencl("clearing the film", e);
         for film in [
-            &self.sum,
-            &self.sum_lo,
-            &self.sum_sq,
-            &self.sum_odd,
-            &self.sum_odd_lo,
+            &self.film.sum,
+            &self.film.sum_lo,
+            &self.film.sum_sq,
+            &self.film.sum_odd,
+            &self.film.sum_odd_lo,
         ] {
             film.cmd().fill(0.0f32, None).enq().map_err(fail)?;
         }
-        for counter in [&self.bad, &self.bad_first] {
+        for counter in [&self.film.bad, &self.film.bad_first] {
             counter.cmd().fill(0u32, None).enq().map_err(fail)?;
         }
         self.device.queue.finish().map_err(fail)
@@ -1398,16 +1446,20 @@ impl<'d> Renderer<'d> {
         }
         let fail = |e: ocl::Error| Error::opencl("writing the film to the device", e);
         for (buffer, values) in [
-            (&self.sum, &state.sum),
-            (&self.sum_lo, &state.sum_lo),
-            (&self.sum_sq, &state.sum_sq),
-            (&self.sum_odd, &state.sum_odd),
-            (&self.sum_odd_lo, &state.sum_odd_lo),
+            (&self.film.sum, &state.sum),
+            (&self.film.sum_lo, &state.sum_lo),
+            (&self.film.sum_sq, &state.sum_sq),
+            (&self.film.sum_odd, &state.sum_odd),
+            (&self.film.sum_odd_lo, &state.sum_odd_lo),
         ] {
             buffer.write(values.as_flattened()).enq().map_err(fail)?;
         }
-        self.bad.write(&state.bad).enq().map_err(fail)?;
-        self.bad_first.write(&state.bad_first).enq().map_err(fail)?;
+        self.film.bad.write(&state.bad).enq().map_err(fail)?;
+        self.film
+            .bad_first
+            .write(&state.bad_first)
+            .enq()
+            .map_err(fail)?;
         self.fix_strategy(strategy)?;
         self.start_samples = samples;
         Ok(())
@@ -1424,13 +1476,13 @@ impl<'d> Renderer<'d> {
         Ok(film_file::FilmState {
             width: self.width(),
             height: self.height(),
-            sum: self.read(&self.sum)?,
-            sum_lo: self.read(&self.sum_lo)?,
-            sum_sq: self.read(&self.sum_sq)?,
-            sum_odd: self.read(&self.sum_odd)?,
-            sum_odd_lo: self.read(&self.sum_odd_lo)?,
-            bad: read_counters(&self.bad)?,
-            bad_first: read_counters(&self.bad_first)?,
+            sum: self.read(&self.film.sum)?,
+            sum_lo: self.read(&self.film.sum_lo)?,
+            sum_sq: self.read(&self.film.sum_sq)?,
+            sum_odd: self.read(&self.film.sum_odd)?,
+            sum_odd_lo: self.read(&self.film.sum_odd_lo)?,
+            bad: read_counters(&self.film.bad)?,
+            bad_first: read_counters(&self.film.bad_first)?,
         })
     }
 

@@ -7,7 +7,6 @@ pub mod camera;
 pub mod curve;
 pub mod mesh;
 pub mod parse;
-pub mod procedural;
 pub mod texture;
 
 use crate::error::{Location, Warning};

@@ -49,7 +49,10 @@ pub fn device() -> clpt::device::Device {
 }
 
 pub mod chi2;
+pub mod curve_reference;
+pub mod procedural;
 pub mod reference;
+pub mod traversal;
 pub mod trial;
 
 use clpt::device::Device;

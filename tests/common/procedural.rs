@@ -1,8 +1,9 @@
 //! Closed triangle meshes made in code, with shared vertices: an icosphere, a torus and a
 //! (p, q) torus knot tube. The watertightness tests aim rays at their shared edges and vertices,
-//! and `examples/make_assets.rs` writes them to `assets/` as OBJ files.
+//! and `examples/make_assets.rs` (which includes this file) writes them to `assets/` as OBJ
+//! files. Generators for tests and assets, kept out of the library.
 
-use super::mesh::TriangleMesh;
+use clpt::scene::mesh::TriangleMesh;
 use glam::DVec3;
 use std::collections::HashMap;
 use std::io::Write;
@@ -163,9 +164,9 @@ pub fn torus_knot(p: u32, q: u32, tube_radius: f64, rings: u32, sides: u32) -> T
     tube("torus_knot", curve, tube_radius, rings, sides)
 }
 
-/// Writes a mesh as an OBJ file (positions and faces, 1-based), atomically (crate::output).
-pub fn write_obj(mesh: &TriangleMesh, path: &Path, comment: &str) -> crate::error::Result<()> {
-    crate::output::write_atomically(path, |out| {
+/// Writes a mesh as an OBJ file (positions and faces, 1-based), atomically (clpt::output).
+pub fn write_obj(mesh: &TriangleMesh, path: &Path, comment: &str) -> clpt::Result<()> {
+    clpt::output::write_atomically(path, |out| {
         let mut write = || -> std::io::Result<()> {
             for line in comment.lines() {
                 writeln!(out, "# {line}")?;
