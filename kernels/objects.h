@@ -24,34 +24,9 @@ inline Hit scene_intersect_until(const Scene* sc, LFloat3 o, LFloat3 d, lfloat t
     bvh_intersect(sc, o, d, &hit);
 #else
     /* Kind by kind, so all work-items run the same code at the same time. */
-#if CLPT_SPHERES
-    for (uint i = 0u; i < sc->params->num_spheres; ++i) {
-        sphere_object_intersect(sc, i, o, d, &hit);
-    }
-#endif
-#if CLPT_PLANES
-#if CLPT_WALLS
-    walls_intersect(sc, o, d, &hit);
-#endif
-    for (uint i = 0u; i < sc->params->num_planes; ++i) {
-#if CLPT_WALLS
-        if (i < 32u && ((sc->params->wall_mask >> i) & 1u) != 0u) {
-            continue; /* a wall, tested above */
-        }
-#endif
-        plane_object_intersect(sc, i, o, d, &hit);
-    }
-#endif
-#if CLPT_MESHES
-    for (uint i = 0u; i < sc->params->num_mesh_instances; ++i) {
-        mesh_object_intersect(sc, i, o, d, &hit);
-    }
-#endif
-#if CLPT_REVSURFACES
-    for (uint i = 0u; i < sc->params->num_revsurfaces; ++i) {
-        rev_object_intersect(sc, i, o, d, &hit);
-    }
-#endif
+#define SHAPE_INTERSECT_ALL(KIND, name) name##_intersect_all(sc, o, d, &hit);
+    SHAPES(SHAPE_INTERSECT_ALL)
+#undef SHAPE_INTERSECT_ALL
 #endif
     return hit;
 }
@@ -114,63 +89,78 @@ inline void mesh_surface(const Scene* sc, __global const MeshDesc* m, Hit hit, l
 }
 #endif
 
-/* The surface of object (kind, index) where the rays (o, d) hit it at hit.t. */
+#if CLPT_SPHERES
+inline Surface sphere_object_surface(const Scene* sc, uint index, Hit hit, LFloat3 o, LFloat3 d,
+                                     uint* transform) {
+    __global const Sphere* sp = &sc->spheres[index];
+    Surface s;
+    *transform = sp->transform;
+    s.material = sp->material;
+    lfloat scale;
+    to_object_space(sc, *transform, &o, &d, &scale);
+    sphere_surface(sp, o, d, hit.t * scale, &s.p, &s.n, &s.p_error);
+    s.ns = s.n;
+    return s;
+}
+#endif
+
+#if CLPT_PLANES
+inline Surface plane_object_surface(const Scene* sc, uint index, Hit hit, LFloat3 o, LFloat3 d,
+                                    uint* transform) {
+    __global const Plane* pl = &sc->planes[index];
+    Surface s;
+    *transform = pl->transform;
+    s.material = pl->material;
+    lfloat scale;
+    to_object_space(sc, *transform, &o, &d, &scale);
+    plane_surface(pl, o, d, hit.t * scale, &s.p, &s.n, &s.p_error);
+    s.ns = s.n;
+    return s;
+}
+#endif
+
+#if CLPT_MESHES
+/* In the lanes that hit instance `index`. */
+inline Surface mesh_object_surface(const Scene* sc, uint index, Hit hit, LFloat3 o, LFloat3 d,
+                                   uint* transform) {
+    __global const MeshInstance* inst = &sc->mesh_instances[index];
+    Surface s;
+    *transform = inst->transform;
+    s.material = inst->material;
+    mesh_surface(sc, &sc->meshes[inst->mesh], hit, hit.kind == OBJECT_MESH && hit.index == index,
+                 &s.p, &s.p_error, &s.n, &s.ns);
+    return s;
+}
+#endif
+
+#if CLPT_REVSURFACES
+inline Surface revsurface_object_surface(const Scene* sc, uint index, Hit hit, float3 o, float3 d,
+                                         uint* transform) {
+    __global const RevSurface* r = &sc->revsurfaces[index];
+    Surface s;
+    *transform = r->transform;
+    s.material = r->material;
+    float scale;
+    to_object_space(sc, *transform, &o, &d, &scale);
+    const float t = hit.t * scale;
+    rev_surface(sc, r, hit, o + t * d, &s.p, &s.p_error, &s.n);
+    s.ns = s.n;
+    return s;
+}
+#endif
+
+/* The surface of object (kind, index) where the rays (o, d) hit it at hit.t: its kind's, taken
+ * to world space by its transform. */
 inline Surface object_surface(const Scene* sc, uint kind, uint index, Hit hit, LFloat3 o,
                               LFloat3 d) {
     Surface s;
-    uint transform;
-    LFloat3 lo = o, ld = d;
-    lfloat t = hit.t;
-#if CLPT_MESHES
-    if (kind == OBJECT_MESH) {
-        __global const MeshInstance* inst = &sc->mesh_instances[index];
-        transform = inst->transform;
-        s.material = inst->material;
-        mesh_surface(sc, &sc->meshes[inst->mesh], hit, hit.kind == OBJECT_MESH && hit.index == index,
-                     &s.p, &s.p_error, &s.n, &s.ns);
-    } else
-#endif
-    {
-        transform = TRANSFORM_NONE;
-#if CLPT_SPHERES
-        if (kind == OBJECT_SPHERE) {
-            transform = sc->spheres[index].transform;
-            s.material = sc->spheres[index].material;
-        }
-#endif
-#if CLPT_PLANES
-        if (kind == OBJECT_PLANE) {
-            transform = sc->planes[index].transform;
-            s.material = sc->planes[index].material;
-        }
-#endif
-#if CLPT_REVSURFACES
-        if (kind == OBJECT_REVSURFACE) {
-            transform = sc->revsurfaces[index].transform;
-            s.material = sc->revsurfaces[index].material;
-        }
-#endif
-        lfloat scale;
-        to_object_space(sc, transform, &lo, &ld, &scale);
-        t *= scale;
-#if CLPT_SPHERES
-        if (kind == OBJECT_SPHERE) {
-            sphere_surface(&sc->spheres[index], lo, ld, t, &s.p, &s.n, &s.p_error);
-        }
-#endif
-#if CLPT_PLANES
-        if (kind == OBJECT_PLANE) {
-            plane_surface(&sc->planes[index], lo, ld, t, &s.p, &s.n, &s.p_error);
-        }
-#endif
-#if CLPT_REVSURFACES
-        if (kind == OBJECT_REVSURFACE) {
-            rev_surface(sc, &sc->revsurfaces[index], hit, lo + t * ld, &s.p, &s.p_error,
-                        &s.n);
-        }
-#endif
-        s.ns = s.n;
+    uint transform = TRANSFORM_NONE;
+#define SHAPE_SURFACE(KIND, name)                                                               \
+    if (kind == KIND) {                                                                      \
+        s = name##_object_surface(sc, index, hit, o, d, &transform);                         \
     }
+    SHAPES(SHAPE_SURFACE)
+#undef SHAPE_SURFACE
     s.p_local = s.p;
     s.n_local = s.n;
     s.transform = transform;

@@ -40,6 +40,39 @@
 #include "revsurface.h"
 #endif
 
+/* Every kind of object, one list: X(KIND, name), its OBJECT_* constant (types.h) and the prefix
+ * of the functions each kind defines:
+ *   name_object_intersect(sc, index, o, d, hit)  object `index`'s hit, kept in hit if nearer;
+ *   name_intersect_all(sc, o, d, hit)             every object of the kind, without the BVH;
+ *   name_object_surface(sc, index, hit, o, d, &transform)
+ *                                                 the surface at a hit in the object's own
+ *                                                 space, with its material (objects.h).
+ * object_intersect (the BVH's leaves), scene_intersect_until (without the BVH) and
+ * object_surface dispatch through it. The order is the one rays meet the kinds in without the
+ * BVH, part of the image (at equal t the first hit found is kept). A kind whose program switch
+ * (features.h) is off is not in the list. docs/adding-a-shape.md says how a kind joins it. */
+#if CLPT_SPHERES
+#define SHAPE_SPHERE(X) X(OBJECT_SPHERE, sphere)
+#else
+#define SHAPE_SPHERE(X)
+#endif
+#if CLPT_PLANES
+#define SHAPE_PLANE(X) X(OBJECT_PLANE, plane)
+#else
+#define SHAPE_PLANE(X)
+#endif
+#if CLPT_MESHES
+#define SHAPE_MESH(X) X(OBJECT_MESH, mesh)
+#else
+#define SHAPE_MESH(X)
+#endif
+#if CLPT_REVSURFACES
+#define SHAPE_REVSURFACE(X) X(OBJECT_REVSURFACE, revsurface)
+#else
+#define SHAPE_REVSURFACE(X)
+#endif
+#define SHAPES(X) SHAPE_SPHERE(X) SHAPE_PLANE(X) SHAPE_MESH(X) SHAPE_REVSURFACE(X)
+
 /* Every scene buffer, in the order kernels take them: built from types.h's SCENE_BUFFERS, the
  * host's one list (src/contract/buffers.rs), which binds each by its name. */
 #define SCENE_FIELD(T, name) __global const T* name;
@@ -150,6 +183,12 @@ inline void mesh_object_intersect(const Scene* sc, uint index, float3 o, float3 
     }
 }
 #endif
+
+inline void mesh_intersect_all(const Scene* sc, LFloat3 o, LFloat3 d, Hit* hit) {
+    for (uint i = 0u; i < sc->params->num_mesh_instances; ++i) {
+        mesh_object_intersect(sc, i, o, d, hit);
+    }
+}
 #endif
 
 /* The ray in a sphere's or plane's own space, with a unit direction: `scale` is the length
@@ -188,6 +227,12 @@ inline void sphere_object_intersect(const Scene* sc, uint index, LFloat3 o, LFlo
     to_object_space(sc, s->transform, &o, &d, &scale);
     const lfloat t_max = hit->t * scale;
     keep_hit(hit, sphere_intersect(s, o, d, t_max), t_max, scale, OBJECT_SPHERE, index);
+}
+
+inline void sphere_intersect_all(const Scene* sc, LFloat3 o, LFloat3 d, Hit* hit) {
+    for (uint i = 0u; i < sc->params->num_spheres; ++i) {
+        sphere_object_intersect(sc, i, o, d, hit);
+    }
 }
 
 #endif
@@ -246,10 +291,26 @@ inline void walls_intersect(const Scene* sc, LFloat3 o, LFloat3 d, Hit* hit) {
     }
 }
 #endif
+
+/* The walls first (where CLPT_WALLS), then every other plane. */
+inline void plane_intersect_all(const Scene* sc, LFloat3 o, LFloat3 d, Hit* hit) {
+#if CLPT_WALLS
+    walls_intersect(sc, o, d, hit);
+#endif
+    for (uint i = 0u; i < sc->params->num_planes; ++i) {
+#if CLPT_WALLS
+        if (i < 32u && ((sc->params->wall_mask >> i) & 1u) != 0u) {
+            continue; /* a wall, tested above */
+        }
+#endif
+        plane_object_intersect(sc, i, o, d, hit);
+    }
+}
 #endif
 
 #if CLPT_REVSURFACES
-inline void rev_object_intersect(const Scene* sc, uint index, float3 o, float3 d, Hit* hit) {
+inline void revsurface_object_intersect(const Scene* sc, uint index, float3 o, float3 d,
+                                       Hit* hit) {
     __global const RevSurface* r = &sc->revsurfaces[index];
     float scale;
     to_object_space(sc, r->transform, &o, &d, &scale);
@@ -261,6 +322,12 @@ inline void rev_object_intersect(const Scene* sc, uint index, float3 o, float3 d
     if (keep_hit(hit, t, t_max, scale, OBJECT_REVSURFACE, index)) {
         hit->prim = seg;
         hit->b1 = u;
+    }
+}
+
+inline void revsurface_intersect_all(const Scene* sc, float3 o, float3 d, Hit* hit) {
+    for (uint i = 0u; i < sc->params->num_revsurfaces; ++i) {
+        revsurface_object_intersect(sc, i, o, d, hit);
     }
 }
 
@@ -311,31 +378,14 @@ inline void rev_surface(const Scene* sc, __global const RevSurface* r, Hit hit, 
 #if CLPT_BVH
 /* A BVH leaf's object, whatever its kind. */
 inline void object_intersect(const Scene* sc, ObjectRef ref, float3 o, float3 d, Hit* hit) {
-#if CLPT_MESHES
-    if (ref.kind == OBJECT_MESH) {
-        mesh_object_intersect(sc, ref.index, o, d, hit);
-        return;
+#define SHAPE_OBJECT_INTERSECT(KIND, name)                                                      \
+    if (ref.kind == KIND) {                                                                  \
+        name##_object_intersect(sc, ref.index, o, d, hit);                                   \
+        return;                                                                              \
     }
-#endif
-#if CLPT_REVSURFACES
-    if (ref.kind == OBJECT_REVSURFACE) {
-        rev_object_intersect(sc, ref.index, o, d, hit);
-        return;
-    }
-#endif
-#if CLPT_SPHERES
-    if (ref.kind == OBJECT_SPHERE) {
-        sphere_object_intersect(sc, ref.index, o, d, hit);
-        return;
-    }
-#endif
-#if CLPT_PLANES
-    if (ref.kind == OBJECT_PLANE) {
-        plane_object_intersect(sc, ref.index, o, d, hit);
-    }
-#endif
+    SHAPES(SHAPE_OBJECT_INTERSECT)
+#undef SHAPE_OBJECT_INTERSECT
 }
-
 #endif
 
 #endif
