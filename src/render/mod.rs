@@ -494,6 +494,27 @@ struct LaunchPlan {
     spp: u32,
 }
 
+impl LaunchPlan {
+    /// The plan whose launches take `target` seconds at `rate` pixel samples per second (the
+    /// slowest launch of the last pass) on a `width` x `height` image: whole images of several
+    /// samples, or bands of rows of one.
+    fn for_rate(rate: f64, target: f64, width: u32, height: u32) -> LaunchPlan {
+        let pixels = f64::from(width) * f64::from(height);
+        let budget = rate * target; // pixel samples per launch
+        if budget >= pixels {
+            LaunchPlan {
+                rows: height,
+                spp: ((budget / pixels) as u32).clamp(1, 1 << 16),
+            }
+        } else {
+            LaunchPlan {
+                rows: ((budget / f64::from(width)) as u32).clamp(1, height),
+                spp: 1,
+            }
+        }
+    }
+}
+
 /// What the render loop does after a pass ([`Renderer::render_with`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Flow {
@@ -1269,6 +1290,46 @@ impl<'d> Renderer<'d> {
         Ok(self.trace(&mut pass, false)?.choice)
     }
 
+    /// One pass: every band of rows of `plan`, each launched with `count` samples from the
+    /// film's sample `spp_done` on; the slowest launch's rate (pixel samples per second) and the
+    /// launches made.
+    fn run_pass(&mut self, plan: LaunchPlan, spp_done: u32, count: u32) -> Result<(f64, u32)> {
+        let (width, height) = (self.width(), self.height());
+        let mut rate = f64::INFINITY;
+        let mut launches = 0;
+        let mut row = 0;
+        while row < height {
+            let rows = plan.rows.min(height - row);
+            let t0 = Instant::now();
+            self.launch(
+                Rows::band(row, rows),
+                self.options.first_sample + spp_done,
+                count,
+            )?;
+            let secs = t0.elapsed().as_secs_f64().max(1e-6);
+            rate = rate.min(rows as f64 * width as f64 * count as f64 / secs);
+            launches += 1;
+            row += rows;
+        }
+        Ok((rate, launches))
+    }
+
+    /// The report's row of pass `pass`, ended with `spp_done` samples a pixel: its error
+    /// estimate (and with a reference the measured error) and its pace since `start`.
+    fn pass_report(&self, pass: u32, spp_done: u32, start: Instant) -> Result<PassReport> {
+        let pixels = f64::from(self.width()) * f64::from(self.height());
+        let (estimate, measured) = self.errors.measure(spp_done, pixels)?;
+        let seconds = start.elapsed().as_secs_f64();
+        Ok(PassReport {
+            pass,
+            seconds,
+            spp: spp_done,
+            spp_per_second: (spp_done - self.start_samples) as f64 / seconds.max(1e-9),
+            estimate,
+            measured,
+        })
+    }
+
     /// The render loop: the trial, then passes until the sample count, the time limit, the
     /// target error or the callback's stop. With `estimate`, the film's error is estimated
     /// after every pass (the report, the target error and the progress line need it).
@@ -1321,21 +1382,8 @@ impl<'d> Renderer<'d> {
                 }
             }
             let pass_start = Instant::now();
-            let mut pass_rate = f64::INFINITY;
-            let mut row = 0;
-            while row < height {
-                let rows = plan.rows.min(height - row);
-                let t0 = Instant::now();
-                self.launch(
-                    Rows::band(row, rows),
-                    self.options.first_sample + spp_done,
-                    count,
-                )?;
-                let secs = t0.elapsed().as_secs_f64().max(1e-6);
-                pass_rate = pass_rate.min(rows as f64 * width as f64 * count as f64 / secs);
-                launches += 1;
-                row += rows;
-            }
+            let (pass_rate, pass_launches) = self.run_pass(plan, spp_done, count)?;
+            launches += pass_launches;
             spp_done += count;
             passes += 1;
             if self.options.first_sample + spp_done > u32::MAX - (1 << 16) {
@@ -1343,17 +1391,9 @@ impl<'d> Renderer<'d> {
             }
             let mut estimate = None;
             if estimate_errors && spp_done >= MIN_SPP_FOR_ESTIMATE {
-                let (e, measured) = self.errors.measure(spp_done, pixels)?;
-                let seconds = start.elapsed().as_secs_f64();
-                report.push(PassReport {
-                    pass: passes,
-                    seconds,
-                    spp: spp_done,
-                    spp_per_second: (spp_done - self.start_samples) as f64 / seconds.max(1e-9),
-                    estimate: e,
-                    measured,
-                });
-                estimate = Some(e);
+                let row = self.pass_report(passes, spp_done, start)?;
+                estimate = Some(row.estimate);
+                report.push(row);
             }
             let elapsed = start.elapsed();
             let progress = Progress {
@@ -1377,18 +1417,7 @@ impl<'d> Renderer<'d> {
             }
             last_rate = Some(pixels * f64::from(count) / pass_start.elapsed().as_secs_f64());
             // Plan the next pass from the slowest launch of this one.
-            let budget = pass_rate * target; // pixel samples per launch
-            plan = if budget >= pixels {
-                LaunchPlan {
-                    rows: height,
-                    spp: ((budget / pixels) as u32).clamp(1, 1 << 16),
-                }
-            } else {
-                LaunchPlan {
-                    rows: ((budget / width as f64) as u32).clamp(1, height),
-                    spp: 1,
-                }
-            };
+            plan = LaunchPlan::for_rate(pass_rate, target, width, height);
         }
         self.launch_plan = Some((self.strategy, plan));
         Ok(Traced {
