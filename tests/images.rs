@@ -8,7 +8,9 @@
 //! rounds differently, so hashes are recorded per device: where none are recorded for the device
 //! the test says so and checks only that every scene renders; `CLPT_RECORD_HASHES=1` records
 //! them (for the device the tests run on) from the code as it is. Record them before a change,
-//! and the test holds the change to them.
+//! and the test holds the change to them. `CLPT_IMAGE_HASHES=FILE` reads and records another
+//! table than the checkout's (a GPU machine's run: tools/pack-device-run carries the test and
+//! `scenes/`, found in the working folder there).
 
 mod common;
 
@@ -19,6 +21,23 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 const HASHES: &str = "tests/data/image-hashes.txt";
+
+/// Where `scenes/` is: the working folder where it has one (a packed device-run/), else the
+/// checkout.
+fn root() -> PathBuf {
+    if Path::new("scenes").is_dir() {
+        PathBuf::from(".")
+    } else {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    }
+}
+
+/// The hash table: `$CLPT_IMAGE_HASHES`, else the checkout's.
+fn table_path() -> PathBuf {
+    std::env::var_os("CLPT_IMAGE_HASHES")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join(HASHES))
+}
 
 /// FNV-1a over the film's sums, bit for bit: every sample of every pixel goes into them.
 fn film_hash(film: &clpt::render::film::Film) -> u64 {
@@ -38,7 +57,7 @@ fn device_key(device: &clpt::device::Device) -> String {
 }
 
 fn scenes() -> Vec<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = root();
     let mut files: Vec<PathBuf> = Vec::new();
     let mut dirs = vec![root.join("scenes")];
     if let Some(seed) = common::seed_dir("every_scene_renders_the_bits_recorded_for_this_device") {
@@ -56,20 +75,18 @@ fn scenes() -> Vec<PathBuf> {
     files
 }
 
+/// `scenes/NAME` or `seed/testcases/NAME`, wherever the folders are.
 fn label(path: &Path) -> String {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    match path.strip_prefix(root) {
-        Ok(p) => p.display().to_string(),
-        Err(_) => format!(
-            "seed/testcases/{}",
-            path.file_name().unwrap().to_string_lossy()
-        ),
+    let name = path.file_name().unwrap().to_string_lossy();
+    if path.parent().is_some_and(|d| d.ends_with("testcases")) {
+        format!("seed/testcases/{name}")
+    } else {
+        format!("scenes/{name}")
     }
 }
 
 fn read_table() -> BTreeMap<(String, String), String> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(HASHES);
-    let text = std::fs::read_to_string(&path).unwrap_or_default();
+    let text = std::fs::read_to_string(table_path()).unwrap_or_default();
     text.lines()
         .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
         .map(|l| {
@@ -92,8 +109,10 @@ fn write_table(table: &BTreeMap<(String, String), String>) {
     for ((device, render), hash) in table {
         text.push_str(&format!("{device}\t{render}\t{hash}\n"));
     }
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(HASHES);
-    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let path = table_path();
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).unwrap();
+    }
     std::fs::write(&path, text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
 }
 
