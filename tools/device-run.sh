@@ -19,6 +19,10 @@
 #             (-v) at each, into $OUT/launches.csv (about 4 minutes on the H200)
 # mitsuba     tools/mitsuba-compare.py --cuda on the room and the dragon room (needs .whl/ from tools/pack-mitsuba-wheels carried)
 # bench       cold builds and rates of each scene's program and of all features; the goblet alone
+# hashes      tests/images.rs on the GPU: with a `pre/test_images` beside run.sh (the test built from
+#             an older checkout, tests/images.rs copied in), that build's hashes are recorded and
+#             this build's compared with them (issue 16's proof: the same bits before and after);
+#             without one, this build's hashes are recorded. Both tables come back in $OUT.
 # programs    whether a scene's program and the all-features one render the same bits on the GPU
 #             (tests/features.rs' question), as built and with fma contraction off
 # Results under $OUT, one file a stage (at most 8 files come back).
@@ -198,6 +202,19 @@ programs() {
       echo "$s, light sampling $light, $k: differ: $(./clpt compare /tmp/p-specialised.pfm /tmp/p-all.pfm 2>&1 | tr '\n' ' ')"
     fi
   done; done; done
+}
+
+hashes() {
+  export CLPT_DEVICE=NVIDIA
+  local pre="$repo/device-run/pre/test_images"
+  [ -x "$pre" ] || pre="$PWD/pre/test_images"
+  if [ -x "$pre" ]; then
+    CLPT_RECORD_HASHES=1 CLPT_IMAGE_HASHES=$OUT/pre-hashes.txt timeout 300 "$pre" --nocapture 2>&1 | tail -3
+    echo "== this build against the older one's hashes"
+    CLPT_IMAGE_HASHES=$OUT/pre-hashes.txt timeout 300 ./test_images --nocapture 2>&1 | tail -50
+  else
+    CLPT_RECORD_HASHES=1 CLPT_IMAGE_HASHES=$OUT/hashes.txt timeout 300 ./test_images --nocapture 2>&1 | tail -3
+  fi
 }
 
 bench() {
