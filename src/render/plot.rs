@@ -1,15 +1,25 @@
 //! Plots of renders' error against time: a render's `--plot` (RMSE against seconds on
 //! log-log axes, the estimate beside the error measured against a reference, and the ideal 1/√t
 //! line of an unbiased Monte Carlo estimator through the first estimate) and `clpt plot`'s
-//! relMSE × seconds of several runs (efficiency.rs). SVG carries labels; PNG draws the same with
-//! a small built-in digit font, for viewers without SVG.
+//! relMSE × seconds of several runs (efficiency.rs).
+//!
+//! The drawing is the `plotters` crate's, so that clpt keeps no plotter of its own: the same
+//! chart (title, whole-decade log-log axes labelled `1e-3`, grid, axis names, a legend, solid and
+//! dashed lines) goes to SVG or to PNG. Text in a PNG is rasterised by `ab_glyph` from a font built
+//! into the binary (`assets/fonts/DejaVuSans-ascii.ttf`, DejaVu Sans cut to printable ASCII), so
+//! no system font is needed; an SVG names `sans-serif` and its viewer draws the text. Either is
+//! drawn in memory and written atomically (output.rs): a failed plot leaves no partial file.
 
 use super::PassReport;
 use super::efficiency::{Run, relmse};
 use crate::error::{Error, Result};
 use crate::output::extension;
-use std::fmt::Write as _;
+use plotters::backend::RGBPixel;
+use plotters::coord::Shift;
+use plotters::element::DashedPathElement;
+use plotters::prelude::*;
 use std::path::Path;
+use std::sync::OnceLock;
 
 /// The formats of a plot, by extension.
 pub const PLOT_FORMATS: &[&str] = &["svg", "png"];
@@ -114,39 +124,185 @@ pub fn write_efficiency_plot(
 
 /// Writes `series` as SVG or PNG, by the extension of `path`.
 fn draw(path: &Path, series: &[Series], title: &str, y_label: &str) -> Result<()> {
-    let plot = Plot::new(series);
-    match extension(path).as_str() {
-        "svg" => crate::output::write_bytes(path, plot.svg(series, title, y_label).as_bytes()),
-        "png" => crate::output::write_atomically(path, |out| {
-            plot.png(series)
-                .write_to(out, image::ImageFormat::Png)
-                .map_err(|e| e.to_string())
-        }),
-        _ => Err(crate::output::unknown_format(path, ".svg or .png")),
+    let format = match extension(path).as_str() {
+        "svg" => Format::Svg,
+        "png" => Format::Png,
+        _ => return Err(crate::output::unknown_format(path, ".svg or .png")),
+    };
+    let bytes = render(format, series, title, y_label).map_err(|message| Error::Write {
+        path: path.to_path_buf(),
+        message,
+    })?;
+    crate::output::write_bytes(path, &bytes)
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Format {
+    Svg,
+    Png,
+}
+
+const W: u32 = 720;
+const H: u32 = 480;
+
+/// The family every text of a plot is set in; the embedded font is registered under it.
+const FONT: &str = "sans-serif";
+
+/// DejaVu Sans, printable ASCII only (assets/fonts/LICENSE-DejaVu.txt).
+static FONT_BYTES: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans-ascii.ttf");
+
+/// Registers the embedded font with plotters, once per process.
+fn register_font() -> std::result::Result<(), String> {
+    static REGISTERED: OnceLock<std::result::Result<(), String>> = OnceLock::new();
+    REGISTERED
+        .get_or_init(|| {
+            plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES)
+                .map_err(|_| "the font built into clpt cannot be read".to_string())
+        })
+        .clone()
+}
+
+/// The plot as the bytes of an SVG or PNG file.
+fn render(
+    format: Format,
+    series: &[Series],
+    title: &str,
+    y_label: &str,
+) -> std::result::Result<Vec<u8>, String> {
+    register_font()?;
+    let failed = |e: &dyn std::fmt::Display| format!("cannot draw the plot: {e}");
+    match format {
+        Format::Svg => {
+            let mut svg = String::new();
+            {
+                let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
+                chart(&root, series, title, y_label).map_err(|e| failed(&e))?;
+            }
+            Ok(svg.into_bytes())
+        }
+        Format::Png => {
+            let mut rgb = vec![0u8; W as usize * H as usize * 3];
+            {
+                let backend = BitMapBackend::<RGBPixel>::with_buffer_and_format(&mut rgb, (W, H))
+                    .map_err(|e| failed(&e))?;
+                chart(&backend.into_drawing_area(), series, title, y_label)
+                    .map_err(|e| failed(&e))?;
+            }
+            let image = image::RgbImage::from_raw(W, H, rgb)
+                .ok_or_else(|| "the plot's pixels do not fill the image".to_string())?;
+            let mut png = std::io::Cursor::new(Vec::new());
+            image
+                .write_to(&mut png, image::ImageFormat::Png)
+                .map_err(|e| e.to_string())?;
+            Ok(png.into_inner())
+        }
     }
 }
 
-const W: f64 = 720.0;
-const H: f64 = 480.0;
-const LEFT: f64 = 80.0;
-const RIGHT: f64 = 20.0;
-const TOP: f64 = 40.0;
-const BOTTOM: f64 = 60.0;
+/// `1e-3` for 0.001: the label of a decade.
+fn decade_label(value: &f64) -> String {
+    format!("1e{}", value.log10().round() as i32)
+}
 
-/// Whole decades around every series, and the mapping to pixels.
-struct Plot {
+/// Draws the whole chart on `root` (any plotters backend).
+fn chart<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    series: &[Series],
+    title: &str,
+    y_label: &str,
+) -> std::result::Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    root.fill(&WHITE)?;
+    let axes = Axes::new(series);
+    let decades = |(a, b): (i32, i32)| (a..=b).map(|d| 10f64.powi(d)).collect::<Vec<f64>>();
+    let (x0, x1) = (10f64.powi(axes.x_decades.0), 10f64.powi(axes.x_decades.1));
+    let (y0, y1) = (10f64.powi(axes.y_decades.0), 10f64.powi(axes.y_decades.1));
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, (FONT, 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(64)
+        .build_cartesian_2d(
+            (x0..x1)
+                .log_scale()
+                .with_key_points(decades(axes.x_decades)),
+            (y0..y1)
+                .log_scale()
+                .with_key_points(decades(axes.y_decades)),
+        )?;
+    chart
+        .configure_mesh()
+        .bold_line_style(RGBColor(221, 221, 221))
+        .axis_style(BLACK)
+        .x_label_formatter(&decade_label)
+        .y_label_formatter(&decade_label)
+        .label_style((FONT, 15))
+        .x_desc("seconds")
+        .y_desc(y_label)
+        .axis_desc_style((FONT, 16))
+        .draw()?;
+    for s in series {
+        let [r, g, b] = s.colour;
+        let style = RGBColor(r, g, b).stroke_width(2);
+        let parts = segments(&s.points);
+        let dashed = s.dashed;
+        let legend = move |(x, y): (i32, i32)| {
+            let ends = vec![(x, y), (x + 24, y)];
+            if dashed {
+                DashedPathElement::new(ends, 6, 4, style).into_dyn()
+            } else {
+                PathElement::new(ends, style).into_dyn()
+            }
+        };
+        if dashed {
+            chart.draw_series(
+                parts
+                    .into_iter()
+                    .map(|p| DashedPathElement::new(p, 6, 4, style)),
+            )?
+        } else {
+            chart.draw_series(parts.into_iter().map(|p| PathElement::new(p, style)))?
+        }
+        .label(s.label.as_str())
+        .legend(legend);
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(170, 170, 170))
+        .label_font((FONT, 15))
+        .draw()?;
+    root.present()
+}
+
+/// Whether a log axis can place a point: both coordinates finite and above zero.
+fn drawable(p: &(f64, f64)) -> bool {
+    p.0 > 0.0 && p.1 > 0.0 && p.0.is_finite() && p.1.is_finite()
+}
+
+/// The runs of consecutive drawable points of a polyline: a point a log axis cannot place
+/// breaks the line rather than being drawn or joined across.
+fn segments(points: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
+    points
+        .split(|p| !drawable(p))
+        .filter(|run| !run.is_empty())
+        .map(<[_]>::to_vec)
+        .collect()
+}
+
+/// Whole decades around every drawable point of every series (1 to 10 where there is none).
+struct Axes {
     x_decades: (i32, i32),
     y_decades: (i32, i32),
 }
 
-impl Plot {
-    fn new(series: &[Series]) -> Plot {
+impl Axes {
+    fn new(series: &[Series]) -> Axes {
+        // Only points a log axis can place: an infinite one made the axes span 2^31 decades.
         let points = series
             .iter()
             .flat_map(|s| &s.points)
-            // Only points a log axis can place: an infinite one made the axes span 2^31
-            // decades, drawn one by one.
-            .filter(|p| p.0 > 0.0 && p.1 > 0.0 && p.0.is_finite() && p.1.is_finite());
+            .filter(|p| drawable(p));
         let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
         for &(x, y) in points {
             x0 = x0.min(x.log10());
@@ -155,211 +311,88 @@ impl Plot {
             y1 = y1.max(y.log10());
         }
         let span = |lo: f64, hi: f64| {
+            if lo > hi {
+                return (0, 1);
+            }
             let (a, b) = (lo.floor() as i32, hi.ceil() as i32);
             (a, if b > a { b } else { a + 1 })
         };
-        Plot {
+        Axes {
             x_decades: span(x0, x1),
             y_decades: span(y0, y1),
         }
     }
-
-    fn to_px(&self, x: f64, y: f64) -> (f64, f64) {
-        let (x0, x1) = (self.x_decades.0 as f64, self.x_decades.1 as f64);
-        let (y0, y1) = (self.y_decades.0 as f64, self.y_decades.1 as f64);
-        (
-            LEFT + (x.log10() - x0) / (x1 - x0) * (W - LEFT - RIGHT),
-            TOP + (y1 - y.log10()) / (y1 - y0) * (H - TOP - BOTTOM),
-        )
-    }
-
-    fn svg(&self, series: &[Series], title: &str, y_label: &str) -> String {
-        let mut s = format!(
-            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{W}\" height=\"{H}\" \
-             font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-        );
-        let _ = writeln!(
-            s,
-            "<text x=\"{}\" y=\"22\" font-size=\"14\">{}</text>",
-            LEFT,
-            escape(title)
-        );
-        for d in self.x_decades.0..=self.x_decades.1 {
-            let (x, _) = self.to_px(10f64.powi(d), 1.0);
-            let _ = writeln!(
-                s,
-                "<line x1=\"{x:.1}\" y1=\"{TOP}\" x2=\"{x:.1}\" y2=\"{}\" stroke=\"#ddd\"/>\
-                 <text x=\"{x:.1}\" y=\"{}\" text-anchor=\"middle\">1e{d}</text>",
-                H - BOTTOM,
-                H - BOTTOM + 16.0
-            );
-        }
-        for d in self.y_decades.0..=self.y_decades.1 {
-            let (_, y) = self.to_px(1.0, 10f64.powi(d));
-            let _ = writeln!(
-                s,
-                "<line x1=\"{LEFT}\" y1=\"{y:.1}\" x2=\"{}\" y2=\"{y:.1}\" stroke=\"#ddd\"/>\
-                 <text x=\"{}\" y=\"{:.1}\" text-anchor=\"end\">1e{d}</text>",
-                W - RIGHT,
-                LEFT - 6.0,
-                y + 4.0
-            );
-        }
-        let _ = writeln!(
-            s,
-            "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">seconds</text>\
-             <text x=\"18\" y=\"{}\" transform=\"rotate(-90 18 {})\" text-anchor=\"middle\">{}</text>",
-            (LEFT + W - RIGHT) / 2.0,
-            H - 20.0,
-            (TOP + H - BOTTOM) / 2.0,
-            (TOP + H - BOTTOM) / 2.0,
-            escape(y_label)
-        );
-        for (i, line) in series.iter().enumerate() {
-            let points: Vec<String> = line
-                .points
-                .iter()
-                .map(|&(x, y)| {
-                    let (px, py) = self.to_px(x, y);
-                    format!("{px:.1},{py:.1}")
-                })
-                .collect();
-            let [r, g, b] = line.colour;
-            let dash = if line.dashed {
-                " stroke-dasharray=\"6 4\""
-            } else {
-                ""
-            };
-            let _ = writeln!(
-                s,
-                "<polyline fill=\"none\" stroke=\"rgb({r},{g},{b})\" stroke-width=\"2\"{dash} points=\"{}\"/>\
-                 <text x=\"{}\" y=\"{}\" fill=\"rgb({r},{g},{b})\">{}</text>",
-                points.join(" "),
-                W - RIGHT - 300.0,
-                TOP + 16.0 + 16.0 * i as f64,
-                escape(&line.label)
-            );
-        }
-        s.push_str("</svg>\n");
-        s
-    }
-
-    fn png(&self, series: &[Series]) -> image::RgbImage {
-        let mut img = image::RgbImage::from_pixel(W as u32, H as u32, image::Rgb([255, 255, 255]));
-        let grey = [221, 221, 221];
-        for d in self.x_decades.0..=self.x_decades.1 {
-            let (x, _) = self.to_px(10f64.powi(d), 1.0);
-            line(&mut img, (x, TOP), (x, H - BOTTOM), grey, false);
-            text(&mut img, x - 10.0, H - BOTTOM + 8.0, &format!("1e{d}"));
-        }
-        for d in self.y_decades.0..=self.y_decades.1 {
-            let (_, y) = self.to_px(1.0, 10f64.powi(d));
-            line(&mut img, (LEFT, y), (W - RIGHT, y), grey, false);
-            text(&mut img, LEFT - 40.0, y - 3.0, &format!("1e{d}"));
-        }
-        text(&mut img, (LEFT + W - RIGHT) / 2.0 - 10.0, H - 24.0, "s");
-        for (i, s) in series.iter().enumerate() {
-            for pair in s.points.windows(2) {
-                let a = self.to_px(pair[0].0, pair[0].1);
-                let b = self.to_px(pair[1].0, pair[1].1);
-                line(&mut img, a, b, s.colour, s.dashed);
-            }
-            // A legend swatch per series (labels are in the SVG).
-            let y = TOP + 10.0 + 12.0 * i as f64;
-            line(
-                &mut img,
-                (W - RIGHT - 60.0, y),
-                (W - RIGHT - 20.0, y),
-                s.colour,
-                s.dashed,
-            );
-        }
-        img
-    }
-}
-
-/// A line two pixels wide, by steps of half a pixel; dashed: 6 on, 4 off.
-fn line(img: &mut image::RgbImage, a: (f64, f64), b: (f64, f64), colour: [u8; 3], dashed: bool) {
-    let steps = ((b.0 - a.0).hypot(b.1 - a.1) * 2.0).ceil().max(1.0) as usize;
-    for i in 0..=steps {
-        if dashed && (i / 2) % 10 >= 6 {
-            continue;
-        }
-        let t = i as f64 / steps as f64;
-        let (x, y) = (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t);
-        for (dx, dy) in [(0.0, 0.0), (0.5, 0.0), (0.0, 0.5)] {
-            let (px, py) = ((x + dx) as i64, (y + dy) as i64);
-            if px >= 0 && py >= 0 && (px as u32) < img.width() && (py as u32) < img.height() {
-                img.put_pixel(px as u32, py as u32, image::Rgb(colour));
-            }
-        }
-    }
-}
-
-/// Digits, `e`, `-`, `.` and `s` in a 3x5 pixel font, drawn twice as large.
-fn text(img: &mut image::RgbImage, x: f64, y: f64, s: &str) {
-    const GLYPHS: &[(char, [u8; 5])] = &[
-        ('0', [7, 5, 5, 5, 7]),
-        ('1', [2, 6, 2, 2, 7]),
-        ('2', [7, 1, 7, 4, 7]),
-        ('3', [7, 1, 7, 1, 7]),
-        ('4', [5, 5, 7, 1, 1]),
-        ('5', [7, 4, 7, 1, 7]),
-        ('6', [7, 4, 7, 5, 7]),
-        ('7', [7, 1, 1, 1, 1]),
-        ('8', [7, 5, 7, 5, 7]),
-        ('9', [7, 5, 7, 1, 7]),
-        ('e', [0, 7, 7, 4, 7]),
-        ('-', [0, 0, 7, 0, 0]),
-        ('.', [0, 0, 0, 0, 2]),
-        ('s', [0, 7, 4, 1, 7]),
-    ];
-    for (k, c) in s.chars().enumerate() {
-        let Some((_, rows)) = GLYPHS.iter().find(|(g, _)| *g == c) else {
-            continue;
-        };
-        for (r, bits) in rows.iter().enumerate() {
-            for col in 0..3 {
-                if bits & (4 >> col) == 0 {
-                    continue;
-                }
-                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                    let px = x as i64 + (k as i64) * 8 + col * 2 + dx;
-                    let py = y as i64 + r as i64 * 2 + dy;
-                    if px >= 0 && py >= 0 && (px as u32) < img.width() && (py as u32) < img.height()
-                    {
-                        img.put_pixel(px as u32, py as u32, image::Rgb([0, 0, 0]));
-                    }
-                }
-            }
-        }
-    }
-}
-
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn run(points: Vec<(f64, f64)>, dashed: bool) -> Series {
+        Series {
+            label: "run".into(),
+            points,
+            colour: [0, 0, 0],
+            dashed,
+        }
+    }
+
     #[test]
     fn infinite_points_do_not_stretch_the_axes() {
-        let series = Series {
-            label: "run".into(),
-            points: vec![
-                (0.5, 1e-2),
-                (1.0, f64::INFINITY),
-                (f64::INFINITY, 1e-3),
-                (2.0, 1e-3),
-            ],
-            colour: [0, 0, 0],
-            dashed: false,
-        };
-        let plot = Plot::new(&[series]);
-        assert_eq!((plot.x_decades, plot.y_decades), ((-1, 1), (-3, -2)));
+        let points = vec![
+            (0.5, 1e-2),
+            (1.0, f64::INFINITY),
+            (f64::INFINITY, 1e-3),
+            (2.0, 1e-3),
+            (3.0, 0.0),
+            (f64::NAN, 1e-2),
+            (-1.0, 1e-2),
+            (4.0, 2e-3),
+            (8.0, 3e-3),
+        ];
+        let axes = Axes::new(&[run(points.clone(), false)]);
+        assert_eq!((axes.x_decades, axes.y_decades), ((-1, 1), (-3, -2)));
+        // Nor are they drawn, nor joined across: the line breaks where one was.
+        assert_eq!(
+            segments(&points),
+            vec![
+                vec![(0.5, 1e-2)],
+                vec![(2.0, 1e-3)],
+                vec![(4.0, 2e-3), (8.0, 3e-3)],
+            ]
+        );
+    }
+
+    #[test]
+    fn plots_draw_in_both_formats() {
+        let series = [
+            run(vec![(0.5, 1e-2), (f64::INFINITY, 1.0), (2.0, 1e-3)], false),
+            run(vec![(0.5, 1e-2), (2.0, 5e-3)], true),
+        ];
+        let svg = render(Format::Svg, &series, "a title", "RMSE").unwrap();
+        let svg = String::from_utf8(svg).unwrap();
+        let texts: Vec<&str> = svg
+            .split("</text>")
+            .filter_map(|t| t.rsplit_once('>'))
+            .map(|(_, text)| text.trim())
+            .collect();
+        for text in [
+            "a title", "seconds", "RMSE", "1e-3", "1e-2", "1e-1", "1e1", "run",
+        ] {
+            assert!(
+                texts.contains(&text),
+                "no {text} in the SVG's texts {texts:?}"
+            );
+        }
+        assert!(!svg.contains("inf") && !svg.contains("NaN"));
+        let png = render(Format::Png, &series, "a title", "RMSE").unwrap();
+        let image = image::load_from_memory(&png).unwrap().to_rgb8();
+        assert_eq!(image.dimensions(), (W, H));
+        // Text is drawn: black pixels in the title's band.
+        let dark = (0..W)
+            .flat_map(|x| (0..30).map(move |y| (x, y)))
+            .filter(|&(x, y)| image.get_pixel(x, y).0.iter().all(|&c| c < 100))
+            .count();
+        assert!(dark > 50, "{dark} dark pixels in the title's band");
     }
 }
