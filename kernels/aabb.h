@@ -8,6 +8,7 @@
 #ifndef CLPT_AABB_H
 #define CLPT_AABB_H
 
+#include "types.h"
 #include "vecmath.h"
 
 /* Clips [*t0, *t1] to the part of o + t d inside [lo, hi]; false if nothing is left. */

@@ -11,6 +11,8 @@
  *   CLPT_PLANES       planes (plane.h)
  *   CLPT_MESHES       triangle meshes: kd-tree traversal, watertight triangles
  *   CLPT_REVSURFACES  surfaces of revolution: root isolation and Newton (revsurface.h)
+ *                     (one switch a kind of object, named by the host's list of kinds: their
+ *                     defaults are written in types.h with the SHAPES(X) list)
  *   CLPT_REV_DEGREE   the one degree of every revolved surface (loops unrolled), 0: mixed
  *   CLPT_BVH          the object BVH (bvh.h); 0: objects are tested kind by kind in a loop
  *   CLPT_WALLS        without the BVH, axis planes tested as walls (objects.h walls_intersect):
@@ -30,18 +32,6 @@
 #ifndef CLPT_FEATURES_H
 #define CLPT_FEATURES_H
 
-#ifndef CLPT_SPHERES
-#define CLPT_SPHERES 1
-#endif
-#ifndef CLPT_PLANES
-#define CLPT_PLANES 1
-#endif
-#ifndef CLPT_MESHES
-#define CLPT_MESHES 1
-#endif
-#ifndef CLPT_REVSURFACES
-#define CLPT_REVSURFACES 1
-#endif
 #ifndef CLPT_REV_DEGREE
 #define CLPT_REV_DEGREE 0
 #endif

@@ -40,38 +40,18 @@
 #include "revsurface.h"
 #endif
 
-/* Every kind of object, one list: X(KIND, name), its OBJECT_* constant (types.h) and the prefix
- * of the functions each kind defines:
+/* Every kind of object, one list: SHAPES(X) in types.h, written from the host's OBJECT_KINDS
+ * (src/contract/types.rs), gives X(KIND, name) for each kind the program has (its switch, as
+ * CLPT_SPHERES, on): its OBJECT_* constant and the prefix of the functions each kind defines:
  *   name_object_intersect(sc, index, o, d, hit)  object `index`'s hit, kept in hit if nearer;
  *   name_intersect_all(sc, o, d, hit)             every object of the kind, without the BVH;
  *   name_object_surface(sc, index, hit, o, d, &transform)
  *                                                 the surface at a hit in the object's own
  *                                                 space, with its material (objects.h).
  * object_intersect (the BVH's leaves), scene_intersect_until (without the BVH) and
- * object_surface dispatch through it. The order is the one rays meet the kinds in without the
- * BVH, part of the image (at equal t the first hit found is kept). A kind whose program switch
- * (features.h) is off is not in the list. docs/adding-a-shape.md says how a kind joins it. */
-#if CLPT_SPHERES
-#define SHAPE_SPHERE(X) X(OBJECT_SPHERE, sphere)
-#else
-#define SHAPE_SPHERE(X)
-#endif
-#if CLPT_PLANES
-#define SHAPE_PLANE(X) X(OBJECT_PLANE, plane)
-#else
-#define SHAPE_PLANE(X)
-#endif
-#if CLPT_MESHES
-#define SHAPE_MESH(X) X(OBJECT_MESH, mesh)
-#else
-#define SHAPE_MESH(X)
-#endif
-#if CLPT_REVSURFACES
-#define SHAPE_REVSURFACE(X) X(OBJECT_REVSURFACE, revsurface)
-#else
-#define SHAPE_REVSURFACE(X)
-#endif
-#define SHAPES(X) SHAPE_SPHERE(X) SHAPE_PLANE(X) SHAPE_MESH(X) SHAPE_REVSURFACE(X)
+ * object_surface dispatch through it, in the list's order: the one rays meet the kinds in
+ * without the BVH, part of the image (at equal t the first hit found is kept). A kind's count
+ * is sc->params->counts[OBJECT_KIND]. docs/adding-a-shape.md says how a kind joins. */
 
 /* Every scene buffer, in the order kernels take them: built from types.h's SCENE_BUFFERS, the
  * host's one list (src/contract/buffers.rs), which binds each by its name. */
@@ -185,7 +165,7 @@ inline void mesh_object_intersect(const Scene* sc, uint index, float3 o, float3 
 #endif
 
 inline void mesh_intersect_all(const Scene* sc, LFloat3 o, LFloat3 d, Hit* hit) {
-    for (uint i = 0u; i < sc->params->num_mesh_instances; ++i) {
+    for (uint i = 0u; i < sc->params->counts[OBJECT_MESH]; ++i) {
         mesh_object_intersect(sc, i, o, d, hit);
     }
 }
@@ -230,7 +210,7 @@ inline void sphere_object_intersect(const Scene* sc, uint index, LFloat3 o, LFlo
 }
 
 inline void sphere_intersect_all(const Scene* sc, LFloat3 o, LFloat3 d, Hit* hit) {
-    for (uint i = 0u; i < sc->params->num_spheres; ++i) {
+    for (uint i = 0u; i < sc->params->counts[OBJECT_SPHERE]; ++i) {
         sphere_object_intersect(sc, i, o, d, hit);
     }
 }
@@ -297,7 +277,7 @@ inline void plane_intersect_all(const Scene* sc, LFloat3 o, LFloat3 d, Hit* hit)
 #if CLPT_WALLS
     walls_intersect(sc, o, d, hit);
 #endif
-    for (uint i = 0u; i < sc->params->num_planes; ++i) {
+    for (uint i = 0u; i < sc->params->counts[OBJECT_PLANE]; ++i) {
 #if CLPT_WALLS
         if (i < 32u && ((sc->params->wall_mask >> i) & 1u) != 0u) {
             continue; /* a wall, tested above */
@@ -326,7 +306,7 @@ inline void revsurface_object_intersect(const Scene* sc, uint index, float3 o, f
 }
 
 inline void revsurface_intersect_all(const Scene* sc, float3 o, float3 d, Hit* hit) {
-    for (uint i = 0u; i < sc->params->num_revsurfaces; ++i) {
+    for (uint i = 0u; i < sc->params->counts[OBJECT_REVSURFACE]; ++i) {
         revsurface_object_intersect(sc, i, o, d, hit);
     }
 }

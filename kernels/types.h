@@ -213,7 +213,7 @@ CLPT_ASSERT_SIZE(RevSurface, 32);
 
 /* The kinds of object, one list for what a ray hit (Hit.kind, objects.h), what a BVH leaf holds
  * (ObjectRef) and what a light-list entry is (Light): each names an object by its kind and its
- * index among its kind. */
+ * index among its kind. Each kind is also an entry of OBJECT_KINDS. */
 #define OBJECT_NONE 0u
 #define OBJECT_SPHERE 1u
 #define OBJECT_PLANE 2u
@@ -257,10 +257,8 @@ CLPT_ASSERT_SIZE(Light, 88);
 /* Everything a render launch needs besides the object arrays, uploaded once per render. */
 typedef struct RenderParams {
     Camera camera;
-    uint num_spheres;
-    uint num_planes;
-    uint num_mesh_instances;
-    uint num_revsurfaces;
+    /* the objects of each kind, at its OBJECT_* (slot 0, OBJECT_NONE, holds 0) */
+    uint counts[5];
     /* ObjectRef entries; [first_unbounded, num_objects) are outside the BVH */
     uint num_objects;
     uint first_unbounded;
@@ -281,7 +279,7 @@ typedef struct RenderParams {
     /* bit i: plane i is one of walls[] (the host picks only planes numbered below 32) */
     uint wall_mask;
 } RenderParams;
-CLPT_ASSERT_SIZE(RenderParams, 172);
+CLPT_ASSERT_SIZE(RenderParams, 176);
 
 /* An empty slot of RenderParams.walls. */
 #define WALL_NONE 0xFFFFFFFFu
@@ -298,6 +296,44 @@ typedef struct ErrorRow {
     float absolute;        /* with a reference: the absolute error */
 } ErrorRow;
 CLPT_ASSERT_SIZE(ErrorRow, 20);
+
+/* Every kind of object, in the order rays meet them without the object BVH
+ * (src/contract/types.rs, OBJECT_KINDS): its program switch CLPT_KINDS (on unless the host's -D
+ * turns it off: src/render/features.rs) and SHAPES(X), X(OBJECT_KIND, kind) for each kind the
+ * program has. kernels/shapes.h says what each kind defines. */
+#ifndef CLPT_SPHERES
+#define CLPT_SPHERES 1
+#endif
+#if CLPT_SPHERES
+#define SHAPE_SPHERE(X) X(OBJECT_SPHERE, sphere)
+#else
+#define SHAPE_SPHERE(X)
+#endif
+#ifndef CLPT_PLANES
+#define CLPT_PLANES 1
+#endif
+#if CLPT_PLANES
+#define SHAPE_PLANE(X) X(OBJECT_PLANE, plane)
+#else
+#define SHAPE_PLANE(X)
+#endif
+#ifndef CLPT_MESHES
+#define CLPT_MESHES 1
+#endif
+#if CLPT_MESHES
+#define SHAPE_MESH(X) X(OBJECT_MESH, mesh)
+#else
+#define SHAPE_MESH(X)
+#endif
+#ifndef CLPT_REVSURFACES
+#define CLPT_REVSURFACES 1
+#endif
+#if CLPT_REVSURFACES
+#define SHAPE_REVSURFACE(X) X(OBJECT_REVSURFACE, revsurface)
+#else
+#define SHAPE_REVSURFACE(X)
+#endif
+#define SHAPES(X) SHAPE_SPHERE(X) SHAPE_PLANE(X) SHAPE_MESH(X) SHAPE_REVSURFACE(X)
 
 /* Every scene buffer, X(element type, parameter name), in the order kernels take them
  * (src/contract/buffers.rs; objects.h builds the Scene struct and the kernels' parameter list

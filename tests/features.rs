@@ -7,6 +7,7 @@
 
 mod common;
 
+use clpt::contract::{OBJECT_MESH, OBJECT_PLANE, OBJECT_REVSURFACE, OBJECT_SPHERE};
 use clpt::device::program::{self, CacheUse, KernelSources};
 use clpt::render::features::Features;
 use clpt::render::strategy::{LightSampling, Roulette};
@@ -105,7 +106,13 @@ fn original_testcases_map_to_their_features() {
     for (file, kinds, maps, thin_lens, glass, emitters) in expected {
         let Some(f) = features(file) else { return };
         let got = (
-            [f.spheres, f.planes, f.meshes, f.revsurfaces, f.transforms],
+            [
+                f.has(OBJECT_SPHERE),
+                f.has(OBJECT_PLANE),
+                f.has(OBJECT_MESH),
+                f.has(OBJECT_REVSURFACE),
+                f.transforms,
+            ],
             [f.color_maps, f.emission_maps, f.type_maps, f.bump_maps],
             f.thin_lens,
             f.glass,
@@ -117,7 +124,8 @@ fn original_testcases_map_to_their_features() {
             "{file}: {f}"
         );
         assert!(!f.bvh, "{file}: under 32 objects, no BVH");
-        assert_eq!(f.rev_degree, if f.revsurfaces { 3 } else { 0 }, "{file}");
+        let degree = if f.has(OBJECT_REVSURFACE) { 3 } else { 0 };
+        assert_eq!(f.rev_degree, degree, "{file}");
     }
 }
 
@@ -267,13 +275,17 @@ fn cpus_get_lanes_where_the_program_allows() {
         (|f| f.nee = true, 16, "light sampling"),
         (
             |f| {
-                f.meshes = true;
+                f.kinds[OBJECT_MESH as usize] = true;
                 f.transforms = true;
             },
             16,
             "meshes and transforms",
         ),
-        (|f| f.revsurfaces = true, 1, "surfaces of revolution"),
+        (
+            |f| f.kinds[OBJECT_REVSURFACE as usize] = true,
+            1,
+            "surfaces of revolution",
+        ),
         (|f| f.bvh = true, 1, "the BVH"),
         (|f| f.color_maps = true, 1, "texture maps"),
     ];

@@ -3,7 +3,7 @@
 //! the tree for readers and for `--kernels DIR`; `tests/layout.rs` fails when it differs from
 //! [`text`] and rewrites it with `CLPT_WRITE_TYPES_H=1`.
 
-use super::{ITEMS, Item, SCENE_BUFFERS};
+use super::{ITEMS, Item, OBJECT_KINDS, SCENE_BUFFERS};
 
 const WIDTH: usize = 100;
 
@@ -67,6 +67,7 @@ pub fn text() -> String {
             }
         }
     }
+    push_kinds(&mut out);
     out.push('\n');
     push_block_comment(
         &mut out,
@@ -83,6 +84,36 @@ pub fn text() -> String {
     }
     out.push_str("\n\n#endif\n");
     out
+}
+
+/// Each kind of object's program switch, on unless the host's `-D` turns it off, and the
+/// `SHAPES(X)` list of the kinds the program has ([`OBJECT_KINDS`]).
+fn push_kinds(out: &mut String) {
+    out.push('\n');
+    push_block_comment(
+        out,
+        "",
+        &[
+            "Every kind of object, in the order rays meet them without the object BVH \
+             (src/contract/types.rs, OBJECT_KINDS): its program switch CLPT_KINDS (on unless \
+             the host's -D turns it off: src/render/features.rs) and SHAPES(X), X(OBJECT_KIND, \
+             kind) for each kind the program has. kernels/shapes.h says what each kind defines.",
+        ],
+    );
+    let mut list = String::from("#define SHAPES(X)");
+    for kind in &OBJECT_KINDS {
+        let switch = kind.switch;
+        let entry = format!("SHAPE_{}", kind.name.to_uppercase());
+        let constant = format!("OBJECT_{}", kind.name.to_uppercase());
+        out.push_str(&format!(
+            "#ifndef {switch}\n#define {switch} 1\n#endif\n#if {switch}\n\
+             #define {entry}(X) X({constant}, {name})\n#else\n#define {entry}(X)\n#endif\n",
+            name = kind.name
+        ));
+        list.push_str(&format!(" {entry}(X)"));
+    }
+    out.push_str(&list);
+    out.push('\n');
 }
 
 /// Whether a doc comment goes on its declaration's line: one phrase, not a sentence.

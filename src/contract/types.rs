@@ -210,7 +210,7 @@ shared! {
 
     /// The kinds of object, one list for what a ray hit (Hit.kind, objects.h), what a BVH leaf
     /// holds (ObjectRef) and what a light-list entry is (Light): each names an object by its
-    /// kind and its index among its kind.
+    /// kind and its index among its kind. Each kind is also an entry of OBJECT_KINDS.
     pub const OBJECT_NONE: u32 = 0;
     pub const OBJECT_SPHERE: u32 = 1;
     pub const OBJECT_PLANE: u32 = 2;
@@ -264,10 +264,8 @@ shared! {
     /// Everything a render launch needs besides the object arrays, uploaded once per render.
     pub struct RenderParams {
         pub camera: Camera,
-        pub num_spheres: u32,
-        pub num_planes: u32,
-        pub num_mesh_instances: u32,
-        pub num_revsurfaces: u32,
+        /// the objects of each kind, at its OBJECT_* (slot 0, OBJECT_NONE, holds 0)
+        pub counts: [u32; OBJECT_SLOTS],
         /// ObjectRef entries; [first_unbounded, num_objects) are outside the BVH
         pub num_objects: u32,
         pub first_unbounded: u32,
@@ -313,6 +311,59 @@ shared! {
         pub absolute: f32,
     }
 }
+
+/// A kind of object as the program sees it: its constant, the prefix of its device functions
+/// (kernels/shapes.h) and its program switch.
+pub struct ObjectKind {
+    /// Its `OBJECT_*` constant.
+    pub id: u32,
+    /// The prefix of its device functions: `NAME_object_intersect`, `NAME_intersect_all`,
+    /// `NAME_object_surface`.
+    pub name: &'static str,
+    /// Its program switch (kernels/features.h); lower-cased without `CLPT_`, its name in
+    /// `clpt render -v`'s feature list.
+    pub switch: &'static str,
+}
+
+/// Every kind of object, in the order rays meet the kinds without the object BVH (at equal t
+/// the first hit found is kept, so the order is part of the image). `kernels/types.h` writes
+/// from it each kind's program switch and the `SHAPES(X)` list through which the kernels
+/// dispatch (shapes.h); the host counts objects (`RenderParams::counts`) and switches kinds
+/// (`render/features.rs`) by it. docs/adding-a-shape.md says how a kind joins.
+pub const OBJECT_KINDS: [ObjectKind; 4] = [
+    ObjectKind {
+        id: OBJECT_SPHERE,
+        name: "sphere",
+        switch: "CLPT_SPHERES",
+    },
+    ObjectKind {
+        id: OBJECT_PLANE,
+        name: "plane",
+        switch: "CLPT_PLANES",
+    },
+    ObjectKind {
+        id: OBJECT_MESH,
+        name: "mesh",
+        switch: "CLPT_MESHES",
+    },
+    ObjectKind {
+        id: OBJECT_REVSURFACE,
+        name: "revsurface",
+        switch: "CLPT_REVSURFACES",
+    },
+];
+
+/// Slots of a table indexed by `OBJECT_*`: every kind and `OBJECT_NONE`.
+pub const OBJECT_SLOTS: usize = OBJECT_KINDS.len() + 1;
+
+// The kinds are numbered 1, 2, ... in the list's order: a table by kind is a table by place.
+const _: () = {
+    let mut i = 0;
+    while i < OBJECT_KINDS.len() {
+        assert!(OBJECT_KINDS[i].id as usize == i + 1);
+        i += 1;
+    }
+};
 
 /// `Default` as all zeros, for the structs where zero is a sensible empty value.
 macro_rules! zeroed_default {

@@ -637,10 +637,7 @@ impl PackedScene {
         let walls = walls(&self.planes);
         RenderParams {
             camera: self.camera.to_device(),
-            num_spheres: self.spheres.len() as u32,
-            num_planes: self.planes.len() as u32,
-            num_mesh_instances: self.mesh_instances.len() as u32,
-            num_revsurfaces: self.revsurfaces.len() as u32,
+            counts: self.counts_by_kind(),
             num_objects: self.objects.len() as u32,
             first_unbounded: self.first_unbounded,
             num_bvh_nodes: self.bvh.len() as u32,
@@ -654,6 +651,16 @@ impl PackedScene {
             walls: walls.0,
             wall_mask: walls.1,
         }
+    }
+
+    /// How many objects of each kind are packed, by `OBJECT_*`: the object table holds each
+    /// object once before `first_unbounded`.
+    fn counts_by_kind(&self) -> [u32; contract::OBJECT_SLOTS] {
+        let mut counts = [0; contract::OBJECT_SLOTS];
+        for object in &self.objects[..self.first_unbounded as usize] {
+            counts[object.kind as usize] += 1;
+        }
+        counts
     }
 
     /// The light list of next-event estimation ([`lights::collect_lights`]), clipped to the

@@ -11,16 +11,16 @@
 //! BENCHMARKS.md.
 
 use super::ObjectBvh;
+use crate::contract::{OBJECT_KINDS, OBJECT_MESH, OBJECT_NONE, OBJECT_REVSURFACE, OBJECT_SLOTS};
 use crate::scene::{Scene, Shape};
 use std::fmt;
 
 /// A scene's feature set. Only materials that some object uses count.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Features {
-    pub spheres: bool,
-    pub planes: bool,
-    pub meshes: bool,
-    pub revsurfaces: bool,
+    /// The kinds of object present, by `OBJECT_*` ([`Features::has`]): each kind's program
+    /// switch (`CLPT_SPHERES` and so on, from the contract's `OBJECT_KINDS`).
+    pub kinds: [bool; OBJECT_SLOTS],
     /// The one degree of all revolved surfaces, 0 when they differ (or there are none).
     pub rev_degree: usize,
     /// Objects tested through the object BVH rather than kind by kind.
@@ -77,12 +77,12 @@ impl Features {
                 _ => None,
             })
             .collect();
-        let kind = |f: fn(&Shape) -> bool| scene.objects.iter().any(|o| f(&o.shape));
+        let mut kinds = [false; OBJECT_SLOTS];
+        for object in &scene.objects {
+            kinds[object.shape.kind() as usize] = true;
+        }
         Features {
-            spheres: kind(|s| matches!(s, Shape::Sphere { .. })),
-            planes: kind(|s| matches!(s, Shape::Plane { .. })),
-            meshes: kind(|s| matches!(s, Shape::Mesh { .. })),
-            revsurfaces: !degrees.is_empty(),
+            kinds,
             rev_degree: match degrees.split_first() {
                 Some((first, rest)) if rest.iter().all(|d| d == first) => *first,
                 _ => 0,
@@ -121,11 +121,10 @@ impl Features {
     /// Every feature on: the program that renders any scene (`--all-features`), as the
     /// kernels build with no options. The BVH stays as `object_bvh` and `scene` decide.
     pub fn all(scene: &Scene, object_bvh: ObjectBvh) -> Features {
+        let mut kinds = [true; OBJECT_SLOTS];
+        kinds[OBJECT_NONE as usize] = false;
         Features {
-            spheres: true,
-            planes: true,
-            meshes: true,
-            revsurfaces: true,
+            kinds,
             rev_degree: 0,
             transforms: true,
             color_maps: true,
@@ -172,7 +171,8 @@ impl Features {
         device: &crate::device::DeviceDescription,
         requested: Option<u32>,
     ) -> u32 {
-        let written = !(self.revsurfaces || self.bvh || self.textures() || self.regenerate);
+        let written =
+            !(self.has(OBJECT_REVSURFACE) || self.bvh || self.textures() || self.regenerate);
         if device.is_gpu || !written {
             return 1;
         }
@@ -183,18 +183,23 @@ impl Features {
         }
     }
 
+    /// Whether the program has objects of kind `kind` (`OBJECT_*`).
+    pub fn has(&self, kind: u32) -> bool {
+        self.kinds.get(kind as usize).copied().unwrap_or(false)
+    }
+
     pub fn textures(&self) -> bool {
         self.color_maps || self.emission_maps || self.type_maps || self.bump_maps
     }
 
-    /// The program switches and values for this feature set (kernels/features.h).
+    /// The program switches and values for this feature set (kernels/features.h; a kind's
+    /// switch is named by the contract's `OBJECT_KINDS`, as types.h defaults it).
     pub fn defines(&self) -> Vec<(&'static str, String)> {
         let flag = |on: bool| (on as u32).to_string();
-        vec![
-            ("CLPT_SPHERES", flag(self.spheres)),
-            ("CLPT_PLANES", flag(self.planes)),
-            ("CLPT_MESHES", flag(self.meshes)),
-            ("CLPT_REVSURFACES", flag(self.revsurfaces)),
+        let kinds = OBJECT_KINDS
+            .iter()
+            .map(|k| (k.switch, flag(self.has(k.id))));
+        let rest = [
             ("CLPT_REV_DEGREE", self.rev_degree.to_string()),
             ("CLPT_BVH", flag(self.bvh)),
             ("CLPT_WALLS", flag(self.walls)),
@@ -206,24 +211,29 @@ impl Features {
             ("CLPT_WIDE", flag(self.lanes > 1)),
             ("CLPT_WIDE_BVH", flag(self.wide_bvh)),
             ("CLPT_LANES", self.lanes.to_string()),
-        ]
+        ];
+        kinds.chain(rest).collect()
     }
 }
 
 impl fmt::Display for Features {
     /// `spheres planes transforms color-maps thin-lens glass, 2 emitters` and the like.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let rev_degree = format!("revolved-surfaces(degree {})", self.rev_degree);
         let lanes = format!("lanes({})", self.lanes);
+        let mut on: Vec<String> = OBJECT_KINDS
+            .iter()
+            .filter(|k| self.has(k.id))
+            .map(|k| {
+                let name = k.switch.trim_start_matches("CLPT_").to_lowercase();
+                match k.id {
+                    OBJECT_REVSURFACE if self.rev_degree > 0 => {
+                        format!("{name}(degree {})", self.rev_degree)
+                    }
+                    _ => name,
+                }
+            })
+            .collect();
         let names = [
-            (self.spheres, "spheres"),
-            (self.planes, "planes"),
-            (self.meshes, "meshes"),
-            (
-                self.revsurfaces && self.rev_degree == 0,
-                "revolved-surfaces",
-            ),
-            (self.revsurfaces && self.rev_degree > 0, rev_degree.as_str()),
             (self.bvh, "bvh"),
             (self.walls && !self.bvh, "walls"),
             (self.transforms, "transforms"),
@@ -235,14 +245,15 @@ impl fmt::Display for Features {
             (self.glass, "glass"),
             (self.nee, "nee"),
             (self.regenerate, "regenerate"),
-            (self.wide_bvh && self.meshes, "wide-bvh"),
+            (self.wide_bvh && self.has(OBJECT_MESH), "wide-bvh"),
             (self.lanes > 1, lanes.as_str()),
         ];
-        let on: Vec<&str> = names
-            .iter()
-            .filter(|(on, _)| *on)
-            .map(|(_, n)| *n)
-            .collect();
+        on.extend(
+            names
+                .iter()
+                .filter(|(on, _)| *on)
+                .map(|(_, n)| n.to_string()),
+        );
         write!(f, "{}, {} emitters", on.join(" "), self.emitters)
     }
 }

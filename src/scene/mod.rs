@@ -9,6 +9,7 @@ pub mod mesh;
 pub mod parse;
 pub mod texture;
 
+use crate::contract;
 use crate::error::{Location, Warning};
 use glam::{DMat4, DVec3};
 use std::path::{Path, PathBuf};
@@ -88,6 +89,18 @@ pub enum Shape {
     Mesh { file: PathBuf },
     /// `RevSurface { profile ... }`: the profile curve revolved about the y axis.
     RevSurface { curve: curve::Curve },
+}
+
+impl Shape {
+    /// Its kind: the contract's `OBJECT_*`.
+    pub fn kind(&self) -> u32 {
+        match self {
+            Shape::Sphere { .. } => contract::OBJECT_SPHERE,
+            Shape::Plane { .. } => contract::OBJECT_PLANE,
+            Shape::Mesh { .. } => contract::OBJECT_MESH,
+            Shape::RevSurface { .. } => contract::OBJECT_REVSURFACE,
+        }
+    }
 }
 
 /// An object of the `Group` with the material index in force where it was declared.
