@@ -14,7 +14,7 @@ use clpt::device::program::{self, KernelSources};
 use clpt::device::upload::SceneBuffers;
 use clpt::device::{self, Device};
 use clpt::pack::PackedScene;
-use clpt::scene::{Scene, Shape};
+use clpt::scene::{RevSurfaceShape, Scene, Shape};
 use glam::{DVec3, Vec3};
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
@@ -41,12 +41,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let Some(goblet) = scene
         .objects
         .iter()
-        .find(|o| matches!(o.shape, Shape::RevSurface { .. }))
+        .find(|o| matches!(o.shape, Shape::RevSurface(_)))
         .cloned()
     else {
         panic!("{} has no RevSurface", path.display());
     };
-    let Shape::RevSurface { curve } = &goblet.shape else {
+    let Shape::RevSurface(RevSurfaceShape { curve }) = &goblet.shape else {
         unreachable!()
     };
     let bounds = curve.revolution_bounds();

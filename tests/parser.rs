@@ -5,7 +5,7 @@ mod common;
 
 use clpt::error::ParseError;
 use clpt::scene::parse::parse_scene;
-use clpt::scene::{MaterialKind, Scene, Shape};
+use clpt::scene::{MaterialKind, PlaneShape, Scene, Shape, SphereShape};
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 
@@ -36,7 +36,7 @@ fn normals(scene: &Scene) -> Vec<DVec3> {
         .objects
         .iter()
         .filter_map(|o| match o.shape {
-            Shape::Plane { normal, .. } => Some(normal),
+            Shape::Plane(PlaneShape { normal, .. }) => Some(normal),
             _ => None,
         })
         .collect()
@@ -122,14 +122,14 @@ fn case2_loads_with_its_two_slips_as_warnings() {
     );
     assert_eq!(
         scene.objects[2].shape,
-        Shape::Plane {
+        Shape::Plane(PlaneShape {
             normal: v(-1.0, 0.0, 0.0),
             offset: -100.0,
             range: 1000.0,
             centerp: v(100.0, 0.0, -100.0),
             dir_u: v(0.0, 0.0, 0.01),
             dir_v: v(0.0, 0.01, 0.0),
-        }
+        })
     );
     assert_eq!(
         (
@@ -173,7 +173,7 @@ fn case0_objects_and_textures() {
         .objects
         .iter()
         .filter_map(|o| match o.shape {
-            Shape::Sphere { center, radius } => Some((center, radius)),
+            Shape::Sphere(SphereShape { center, radius }) => Some((center, radius)),
             _ => None,
         })
         .collect();
@@ -223,10 +223,10 @@ fn default_scene_materials() {
     assert_eq!(material_indices(&scene), [0, 3, 3, 3, 3, 6, 8, 9]);
     assert_eq!(
         scene.objects[0].shape,
-        Shape::Sphere {
+        Shape::Sphere(SphereShape {
             center: v(230.0, 180.0, 120.0),
             radius: 100.0
-        }
+        })
     );
 }
 
@@ -246,20 +246,20 @@ fn originals_with_meshes_and_curves_parse() {
         let scene = parse_testcase(&seed, name);
         let count = |f: fn(&Shape) -> bool| scene.objects.iter().filter(|o| f(&o.shape)).count();
         assert_eq!(
-            count(|s| matches!(s, Shape::Mesh { .. })),
+            count(|s| matches!(s, Shape::Mesh(_))),
             meshes,
             "{name}: meshes"
         );
         assert_eq!(
-            count(|s| matches!(s, Shape::RevSurface { .. })),
+            count(|s| matches!(s, Shape::RevSurface(_))),
             curves,
             "{name}: curves"
         );
         assert!(
-            scene.objects.iter().all(|o| !matches!(
-                o.shape,
-                Shape::Mesh { .. } | Shape::RevSurface { .. }
-            ) || o.transform.is_some()),
+            scene.objects.iter().all(
+                |o| !matches!(o.shape, Shape::Mesh(_) | Shape::RevSurface(_))
+                    || o.transform.is_some()
+            ),
             "{name}: transforms"
         );
     }
@@ -735,25 +735,25 @@ fn blocks_and_fields_in_any_order_with_comments() {
     assert_eq!(material_indices(&scene), [0, 2, 2]);
     assert_eq!(
         scene.objects[1].shape,
-        Shape::Plane {
+        Shape::Plane(PlaneShape {
             normal: v(0.0, 2.0, 0.0),
             offset: -1.0,
             range: 10.0,
             centerp: v(0.0, -1.0, 0.0),
             dir_u: v(1.0, 0.0, 0.0),
             dir_v: v(0.0, 0.0, 1.0),
-        }
+        })
     );
     assert_eq!(
         scene.objects[2].shape,
-        Shape::Plane {
+        Shape::Plane(PlaneShape {
             normal: v(1.0, 0.0, 0.0),
             offset: 3.0,
             range: 5.0,
             centerp: DVec3::ZERO,
             dir_u: DVec3::ZERO,
             dir_v: DVec3::ZERO,
-        }
+        })
     );
     let m = &scene.materials;
     assert_eq!(
@@ -825,10 +825,10 @@ fn a_comment_can_follow_a_word_directly() {
     let scene = parse_scene(&text, "c").unwrap();
     assert_eq!(
         scene.objects[0].shape,
-        Shape::Sphere {
+        Shape::Sphere(SphereShape {
             center: DVec3::ZERO,
             radius: 1.0
-        }
+        })
     );
 }
 

@@ -107,11 +107,9 @@
 //! area density. Larger caps are sampled as the whole sphere, by its cone, which serves them
 //! better (a cap's back side, seen from a point, is hidden by its front).
 
-use super::convert::f32x3;
 use crate::contract::{self, Light, Material, MeshDesc, TextureMap, Transform};
 use crate::scene::camera::CameraBasis;
 use glam::{DMat3, DVec3};
-use std::f64::consts::PI;
 
 /// What the light list reads of a packed scene.
 pub struct LightSources<'a> {
@@ -134,149 +132,9 @@ pub struct LightSources<'a> {
 /// plane emitters clipped to `room` and its emitters wholly outside it dropped (module doc).
 pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
     let mut emitters = Vec::new();
-    sphere_lights(scene, room, &mut emitters);
-    plane_lights(scene, room, &mut emitters);
-    mesh_lights(scene, room, &mut emitters);
+    super::shapes::emitters(scene, room, &mut emitters);
     emitters.retain(|(_, power)| *power > 0.0 && power.is_finite());
     pick_by_power(emitters)
-}
-
-/// The emitting spheres of uniform scale (an ellipsoid is left to BSDF sampling), each with
-/// the power of what some path can see of it.
-fn sphere_lights(scene: &LightSources, room: Option<&Room>, out: &mut Vec<(Light, f64)>) {
-    for (i, s) in scene.spheres.iter().enumerate() {
-        let Some(le) = constant_emission(scene.materials, s.material) else {
-            continue;
-        };
-        let affine = Affine::of(scene.transforms, s.transform);
-        let Some(scale) = affine.uniform_scale() else {
-            continue; // an ellipsoid
-        };
-        let radius = s.radius_f64() * scale;
-        let center = affine.point(s.center_f64());
-        let mut light = Light {
-            kind: contract::OBJECT_SPHERE,
-            index: i as u32,
-            material: s.material,
-            corner: f32x3(center),
-            radius: radius as f32,
-            ..Light::default()
-        };
-        // What no path can see of it stays out of its samples (module doc).
-        let mut area = 4.0 * PI * radius * radius;
-        match visible_cap(scene, room, i, center, radius) {
-            Visible::Nothing => continue,
-            Visible::Whole => {}
-            Visible::Cap { axis, height } => {
-                light.normal = f32x3(axis);
-                light.cap_height = height as f32;
-                area = 2.0 * PI * radius * height;
-                light.area = area as f32;
-            }
-        }
-        out.push((light, PI * le * area));
-    }
-}
-
-/// The emitting axis-aligned planes, each as the square its range keeps (clipped to the room),
-/// with its power.
-fn plane_lights(scene: &LightSources, room: Option<&Room>, out: &mut Vec<(Light, f64)>) {
-    for (i, p) in scene.planes.iter().enumerate() {
-        let Some(le) = constant_emission(scene.materials, p.material) else {
-            continue;
-        };
-        let n = dvec(p.normal);
-        if p.normal.iter().filter(|&&c| c != 0.0).count() != 1 {
-            continue; // tilted: its visible part is a polygon
-        }
-        // The square centre + [-range, range] along the two other axes: what the plane's
-        // range test (plane.h) keeps of it.
-        let a = if n.x != 0.0 { DVec3::Y } else { DVec3::X };
-        let b = if n.z != 0.0 { DVec3::Y } else { DVec3::Z };
-        let range = f64::from(p.range);
-        let corner = dvec(p.center) - (a + b) * range;
-        let affine = Affine::of(scene.transforms, p.transform);
-        let (mut e1, mut e2) = (
-            affine.vector(a * 2.0 * range),
-            affine.vector(b * 2.0 * range),
-        );
-        let cross = e1.cross(e2);
-        let mut area = cross.length();
-        let mut normal = cross / area;
-        if normal.dot(affine.normal(n)) < 0.0 {
-            std::mem::swap(&mut e1, &mut e2);
-            normal = -normal;
-        }
-        let mut corner = affine.point(corner);
-        if let Some(room) = room {
-            if room.faces_away(corner, normal) {
-                continue; // seen from behind from everywhere in the room
-            }
-            let Some([a0, a1, b0, b1]) = room.clip(corner, e1, e2, &SQUARE) else {
-                continue; // wholly outside the room
-            };
-            corner += e1 * a0 + e2 * b0;
-            e1 *= a1 - a0;
-            e2 *= b1 - b0;
-            area *= (a1 - a0) * (b1 - b0);
-        }
-        let light = Light {
-            kind: contract::OBJECT_PLANE,
-            index: i as u32,
-            material: p.material,
-            corner: f32x3(corner),
-            edge1: f32x3(e1),
-            edge2: f32x3(e2),
-            normal: f32x3(normal),
-            area: area as f32,
-            // A wall is untransformed: its edges lie along two axes, a rectangle.
-            solid_angle: u32::from(room.is_some_and(|room| room.walls.contains(&(i as u32)))),
-            ..Light::default()
-        };
-        out.push((light, PI * le * area));
-    }
-}
-
-/// Every triangle of the emitting meshes that some path can see, with its power (both sides).
-fn mesh_lights(scene: &LightSources, room: Option<&Room>, out: &mut Vec<(Light, f64)>) {
-    for (i, inst) in scene.mesh_instances.iter().enumerate() {
-        let Some(le) = constant_emission(scene.materials, inst.material) else {
-            continue;
-        };
-        let affine = Affine::of(scene.transforms, inst.transform);
-        let mesh = &scene.meshes[inst.mesh as usize];
-        let end = scene
-            .meshes
-            .get(inst.mesh as usize + 1)
-            .map_or(scene.triangles.len(), |next| next.first_triangle as usize);
-        let first = mesh.first_triangle as usize;
-        for (t, tri) in scene.triangles[first..end].iter().enumerate() {
-            let v =
-                tri.map(|k| affine.point(dvec(scene.vertices[(mesh.first_vertex + k) as usize])));
-            let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
-            let cross = e1.cross(e2);
-            let area = 0.5 * cross.length();
-            if area.is_nan() || area <= 0.0 {
-                continue; // degenerate: nothing to sample, and no ray hits it
-            }
-            if room.is_some_and(|room| room.clip(v[0], e1, e2, &TRIANGLE).is_none()) {
-                continue; // wholly outside the room: no path sees it
-            }
-            let light = Light {
-                kind: contract::OBJECT_MESH,
-                index: i as u32,
-                triangle: t as u32,
-                material: inst.material,
-                corner: f32x3(v[0]),
-                edge1: f32x3(e1),
-                edge2: f32x3(e2),
-                normal: f32x3(cross.normalize()),
-                area: area as f32,
-                ..Light::default()
-            };
-            out.push((light, 2.0 * PI * le * area));
-        }
-    }
 }
 
 /// The light list: entries sorted by (kind, index, triangle), so that a hit finds its own by
@@ -338,8 +196,8 @@ pub fn report(lights: &[Light], room: Option<&Room>, origin: DVec3) -> String {
 pub const ROOM_TOLERANCE: f64 = 1e-5;
 
 /// The unit square and triangle in edge parameters (a, b) of `corner + edge1 a + edge2 b`.
-const SQUARE: [[f64; 2]; 4] = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
-const TRIANGLE: [[f64; 2]; 3] = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+pub(super) const SQUARE: [[f64; 2]; 4] = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+pub(super) const TRIANGLE: [[f64; 2]; 3] = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
 
 /// A closed room around the camera (module doc): no path leaves the box `lo..hi`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -623,25 +481,25 @@ fn reflects_only(scene: &LightSources, m: &Material) -> bool {
 }
 
 /// The mean channel of a material's emission, if it emits a constant (unmapped) radiance.
-fn constant_emission(materials: &[Material], material: u32) -> Option<f64> {
+pub(super) fn constant_emission(materials: &[Material], material: u32) -> Option<f64> {
     let m = materials.get(material as usize)?;
     let le = m.emission.iter().map(|&e| f64::from(e)).sum::<f64>() / 3.0;
     (m.emission.iter().any(|&e| e > 0.0) && m.emission_map == contract::MAP_NONE).then_some(le)
 }
 
-fn dvec(v: [f32; 3]) -> DVec3 {
+pub(super) fn dvec(v: [f32; 3]) -> DVec3 {
     DVec3::from(v.map(f64::from))
 }
 
 /// An object's transform as the device applies it (its f32 rows, computed in f64).
-struct Affine {
+pub(super) struct Affine {
     linear: DMat3,
     translation: DVec3,
     inverse: DMat3,
 }
 
 impl Affine {
-    fn of(transforms: &[Transform], index: u32) -> Affine {
+    pub(super) fn of(transforms: &[Transform], index: u32) -> Affine {
         let Some(t) = transforms.get(index as usize) else {
             return Affine {
                 linear: DMat3::IDENTITY,
@@ -661,21 +519,21 @@ impl Affine {
         }
     }
 
-    fn point(&self, p: DVec3) -> DVec3 {
+    pub(super) fn point(&self, p: DVec3) -> DVec3 {
         self.linear * p + self.translation
     }
 
-    fn vector(&self, v: DVec3) -> DVec3 {
+    pub(super) fn vector(&self, v: DVec3) -> DVec3 {
         self.linear * v
     }
 
     /// A normal's world direction (the inverse transpose), not normalised.
-    fn normal(&self, n: DVec3) -> DVec3 {
+    pub(super) fn normal(&self, n: DVec3) -> DVec3 {
         self.inverse.transpose() * n
     }
 
     /// The scale of a similarity (orthogonal columns of one length, to f32 rounding), or None.
-    fn uniform_scale(&self) -> Option<f64> {
+    pub(super) fn uniform_scale(&self) -> Option<f64> {
         let cols = [self.linear.x_axis, self.linear.y_axis, self.linear.z_axis];
         let s2 = cols[0].length_squared();
         let tol = 1e-5 * s2;

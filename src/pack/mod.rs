@@ -22,26 +22,25 @@
 
 pub mod convert;
 pub mod lights;
+pub mod shapes;
 
 use crate::accel::aabb::Aabb;
 use crate::accel::bvh::Bvh;
-use crate::accel::kdtree::{KdParams, KdTree};
-use crate::accel::wide_bvh::WideBvh;
 use crate::contract::{
     self, BvhNode, KdNode, Light, Material, MeshDesc, MeshInstance, ObjectRef, Plane, RenderParams,
     RevSurface, Sphere, Transform, WideBvhNode,
 };
 use crate::error::{Error, Result};
 use crate::scene::camera::CameraBasis;
-use crate::scene::curve::Curve;
-use crate::scene::mesh::{self, TriangleMesh};
+use crate::scene::mesh;
 use crate::scene::texture::TexturePack;
-use crate::scene::{MaterialKind, Scene, Shape};
-use convert::{f32x3, rows3x4, split_f32, split_f32x3};
+use crate::scene::{MaterialKind, Scene};
+use convert::{f32x3, rows3x4};
 use glam::{DMat4, DVec3};
+use shapes::{MeshFiles, ObjectPlace, Placement};
 use std::collections::HashMap;
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// What `clpt render -v` reports about one mesh file.
 #[derive(Clone, Debug)]
@@ -74,7 +73,7 @@ pub struct PackedScene {
     pub transforms: Vec<Transform>,
     pub meshes: Vec<MeshDesc>,
     pub mesh_instances: Vec<MeshInstance>,
-    /// Whether meshes carry 8-wide BVHs ([`WideBvh`], on a CPU: kernels/wide_bvh.h)
+    /// Whether meshes carry 8-wide BVHs ([`crate::accel::wide_bvh::WideBvh`], on a CPU: kernels/wide_bvh.h)
     /// in `wide_nodes`, instead of kd-trees in `kd_nodes`; either way their leaves' triangles
     /// are in `kd_indices` (a kd-tree's as numbers, a wide BVH's as slots of
     /// `WIDE_BVH_SLOT` words), and the kernels' mesh-node buffer holds the one kind.
@@ -99,38 +98,6 @@ pub struct PackedScene {
     pub rev_points: Vec<[f32; 2]>,
     /// World boxes of `objects[..first_unbounded]`, as the BVH was built on them.
     pub object_boxes: Vec<Aabb>,
-}
-
-/// The world box of an object-space box under `m` (all eight corners: the original took two).
-fn transform_box(b: &Aabb, m: Option<&DMat4>) -> Aabb {
-    let Some(m) = m else { return *b };
-    Aabb::from_points((0..8).map(|i| {
-        let corner = DVec3::new(
-            if i & 1 == 0 { b.lo.x } else { b.hi.x },
-            if i & 2 == 0 { b.lo.y } else { b.hi.y },
-            if i & 4 == 0 { b.lo.z } else { b.hi.z },
-        );
-        m.transform_point3(corner)
-    }))
-}
-
-/// Where an object goes on the device: its transform there (the scene's, then the move to the
-/// camera-relative origin), that move alone, and the shift of an untransformed object's own
-/// coordinates (module doc).
-struct Placement<'a> {
-    transform: Option<&'a DMat4>,
-    to_device: &'a DMat4,
-    shift: DVec3,
-}
-
-/// A scene plane as written (`Shape::Plane`).
-struct PlaneShape {
-    normal: DVec3,
-    offset: f64,
-    range: f64,
-    centerp: DVec3,
-    dir_u: DVec3,
-    dir_v: DVec3,
 }
 
 /// The scene's materials, each with its texture maps' indices.
@@ -192,8 +159,11 @@ impl PackedScene {
         let to_device = DMat4::from_translation(-origin);
         packed.materials = pack_materials(scene, &textures);
         packed.textures = textures;
-        // Each OBJ file's mesh, by whether its vertices are moved to the device's origin.
-        let mut loaded: HashMap<(PathBuf, bool), u32> = HashMap::new();
+        let mut files = MeshFiles {
+            base_dir: scene.base_dir.as_deref(),
+            max_bytes: max_mesh_bytes,
+            loaded: HashMap::new(),
+        };
         for object in &scene.objects {
             if object.material >= packed.materials.len() {
                 return Err(Error::Invalid(format!(
@@ -203,53 +173,26 @@ impl PackedScene {
                     packed.materials.len()
                 )));
             }
-            let material = object.material as u32;
-            let before = packed.counts();
+            let before = packed.sizes();
             let placed = object.transform.map(|m| to_device * m);
-            let at = Placement {
-                transform: placed.as_ref(),
-                to_device: &to_device,
-                // Where an untransformed object's coordinates go on the device.
-                shift: if placed.is_some() {
-                    DVec3::ZERO
-                } else {
-                    -origin
+            let place = ObjectPlace {
+                material: object.material as u32,
+                at: Placement {
+                    transform: placed.as_ref(),
+                    to_device: &to_device,
+                    // Where an untransformed object's coordinates go on the device.
+                    shift: if placed.is_some() {
+                        DVec3::ZERO
+                    } else {
+                        -origin
+                    },
                 },
+                location: &object.location,
             };
-            match &object.shape {
-                Shape::Sphere { center, radius } => {
-                    packed.pack_sphere(*center, *radius, material, &at);
-                }
-                Shape::Plane {
-                    normal,
-                    offset,
-                    range,
-                    centerp,
-                    dir_u,
-                    dir_v,
-                } => {
-                    let plane = PlaneShape {
-                        normal: *normal,
-                        offset: *offset,
-                        range: *range,
-                        centerp: *centerp,
-                        dir_u: *dir_u,
-                        dir_v: *dir_v,
-                    };
-                    packed.pack_plane(&plane, material, &at);
-                }
-                Shape::RevSurface { curve } => packed.pack_revsurface(curve, material, &at),
-                Shape::Mesh { file } => {
-                    let path = crate::scene::resolve(
-                        "mesh",
-                        file,
-                        scene.base_dir.as_deref(),
-                        &object.location,
-                    )?;
-                    let mesh = packed.mesh_once(path, &at, &mut loaded, max_mesh_bytes)?;
-                    packed.pack_mesh_instance(mesh, material, &at);
-                }
-            }
+            let shape = shapes::host(&object.shape);
+            let index = shape.pack(&mut packed, &place, &mut files)?;
+            let world_box = shape.world_bounds(&packed, index, &place.at);
+            packed.push_object(object.shape.kind(), index, world_box);
             if !packed.finite_since(before) {
                 return Err(Error::Invalid(format!(
                     "{}: the object lies too far from the camera at ({:?}, {:?}, {:?}): the \
@@ -258,13 +201,12 @@ impl PackedScene {
                 )));
             }
         }
-        packed.build_bvh();
-        packed.collect_lights();
+        packed.finish();
         Ok(packed)
     }
 
     /// How many spheres, planes, transforms, vertices and profile points are packed.
-    fn counts(&self) -> [usize; 5] {
+    fn sizes(&self) -> [usize; 5] {
         [
             self.spheres.len(),
             self.planes.len(),
@@ -274,7 +216,7 @@ impl PackedScene {
         ]
     }
 
-    /// Whether every number packed since `counts` was `before` is finite: the host's f64 values
+    /// Whether every number packed since `sizes` was `before` is finite: the host's f64 values
     /// are within f32's range (the parser checks), but their differences from the camera's
     /// position need not be.
     fn finite_since(&self, before: [usize; 5]) -> bool {
@@ -300,153 +242,6 @@ impl PackedScene {
             && self.rev_points[r..].iter().flatten().all(finite)
     }
 
-    /// A sphere: centre and radius as double-floats, the centre moved to the device's origin
-    /// (module doc).
-    fn pack_sphere(&mut self, center: DVec3, radius: f64, material: u32, at: &Placement) {
-        let (center, center_lo) = split_f32x3(center + at.shift);
-        let (radius, radius_lo) = split_f32(radius);
-        let sphere = Sphere {
-            center,
-            radius,
-            center_lo,
-            radius_lo,
-            material,
-            transform: self.push_transform(at.transform),
-        };
-        self.push_sphere(sphere, at.transform);
-    }
-
-    /// A plane: its unit normal and, through its box centre, its offset (module doc).
-    fn pack_plane(&mut self, p: &PlaneShape, material: u32, at: &Placement) {
-        // n.p = offset with n as written: the unit normal, and the offset through
-        // the box centre with that normal as rounded, so that its rounding tilts
-        // the plane about the centre (on the part a ray can meet) rather than about
-        // the origin (module doc).
-        let len = p.normal.length();
-        let unit = f32x3(p.normal / len);
-        let center = (p.normal / len) * (p.offset / len) + at.shift;
-        let plane = Plane {
-            normal: unit,
-            offset: DVec3::from(unit.map(f64::from)).dot(center) as f32,
-            range: p.range as f32,
-            center: f32x3(center),
-            centerp: f32x3(p.centerp + at.shift),
-            dir_u: f32x3(p.dir_u),
-            dir_v: f32x3(p.dir_v),
-            material,
-            transform: self.push_transform(at.transform),
-        };
-        self.push_plane(plane, at.transform);
-    }
-
-    /// A surface of revolution: its profile's Bezier segments, heights centred on 0.
-    fn pack_revsurface(&mut self, curve: &Curve, material: u32, at: &Placement) {
-        let segments = curve.bezier_segments();
-        let points = || segments.iter().flatten();
-        // Heights centred on 0, the shift folded into the transform (module doc).
-        let (y_min, y_max) = points().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p.y), hi.max(p.y))
-        });
-        let y_mid = 0.5 * (y_min + y_max);
-        let placement = DMat4::from_translation(DVec3::new(0.0, y_mid, 0.0));
-        let centred = Some(at.transform.copied().unwrap_or(*at.to_device) * placement)
-            .filter(|m| *m != DMat4::IDENTITY);
-        let stored: Vec<[f32; 2]> = points()
-            .map(|p| [p.x as f32, (p.y - y_mid) as f32])
-            .collect();
-        let (radius, y_lo, y_hi) = stored.iter().fold(
-            (0.0f32, f32::INFINITY, f32::NEG_INFINITY),
-            |(r, lo, hi), p| (r.max(p[0].abs()), lo.min(p[1]), hi.max(p[1])),
-        );
-        let revsurface = RevSurface {
-            first_point: self.rev_points.len() as u32,
-            num_segments: segments.len() as u32,
-            degree: curve.degree() as u32,
-            material,
-            transform: self.push_transform(centred.as_ref()),
-            radius,
-            y_lo,
-            y_hi,
-        };
-        self.rev_points.extend(stored);
-        let world = at.transform.copied().unwrap_or(*at.to_device);
-        let b = transform_box(&curve.revolution_bounds(), Some(&world));
-        self.push_object(contract::OBJECT_REVSURFACE, self.revsurfaces.len(), b);
-        self.revsurfaces.push(revsurface);
-    }
-
-    /// The mesh of OBJ file `path`, loaded and pushed once for each way it is placed (its
-    /// vertices moved to the device's origin, or left for a transform to move): `loaded` holds
-    /// those already pushed.
-    fn mesh_once(
-        &mut self,
-        path: PathBuf,
-        at: &Placement,
-        loaded: &mut HashMap<(PathBuf, bool), u32>,
-        max_mesh_bytes: u64,
-    ) -> Result<u32> {
-        let key = (path, at.transform.is_none());
-        if let Some(&m) = loaded.get(&key) {
-            return Ok(m);
-        }
-        let mut mesh = TriangleMesh::load_within(&key.0, max_mesh_bytes)?;
-        if at.shift != DVec3::ZERO {
-            for v in &mut mesh.positions {
-                *v = f32x3(DVec3::from(v.map(f64::from)) + at.shift);
-            }
-        }
-        let m = self.push_mesh(mesh)?;
-        loaded.insert(key, m);
-        Ok(m)
-    }
-
-    /// An instance of mesh `mesh` (already pushed), with its world box in the object table.
-    fn pack_mesh_instance(&mut self, mesh: u32, material: u32, at: &Placement) {
-        self.mesh_info[mesh as usize].instances += 1;
-        let instance = MeshInstance {
-            mesh,
-            transform: self.push_transform(at.transform),
-            material,
-        };
-        let desc = &self.meshes[mesh as usize];
-        let bounds = Aabb {
-            lo: DVec3::from(desc.lo.map(f64::from)),
-            hi: DVec3::from(desc.hi.map(f64::from)),
-        };
-        self.push_object(
-            contract::OBJECT_MESH,
-            self.mesh_instances.len(),
-            transform_box(&bounds, at.transform),
-        );
-        self.mesh_instances.push(instance);
-    }
-
-    /// A scene of untransformed spheres and planes made in code (tests, probes), in device
-    /// coordinates (origin 0); each plane's box is centred on `normal * offset`, as a scene
-    /// file's is.
-    pub fn from_parts(
-        camera: CameraBasis,
-        materials: Vec<Material>,
-        spheres: Vec<Sphere>,
-        planes: Vec<Plane>,
-    ) -> PackedScene {
-        let mut packed = PackedScene {
-            camera,
-            materials,
-            ..PackedScene::default()
-        };
-        for s in spheres {
-            packed.push_sphere(s, None);
-        }
-        for mut p in planes {
-            p.center = p.normal.map(|c| c * p.offset);
-            packed.push_plane(p, None);
-        }
-        packed.build_bvh();
-        packed.collect_lights();
-        packed
-    }
-
     fn push_transform(&mut self, m: Option<&DMat4>) -> u32 {
         match m {
             None => contract::TRANSFORM_NONE,
@@ -460,7 +255,9 @@ impl PackedScene {
         }
     }
 
-    fn push_object(&mut self, kind: u32, index: usize, world_box: Aabb) {
+    /// Enters object `index` of kind `kind` (`OBJECT_*`), whose device struct is already in its
+    /// kind's array, in the object table with its world box: what the object BVH is built on.
+    pub fn push_object(&mut self, kind: u32, index: usize, world_box: Aabb) {
         self.objects.push(ObjectRef {
             kind,
             index: index as u32,
@@ -468,112 +265,11 @@ impl PackedScene {
         self.object_boxes.push(world_box);
     }
 
-    fn push_sphere(&mut self, s: Sphere, transform: Option<&DMat4>) {
-        let c = s.center_f64();
-        let r = DVec3::splat(s.radius_f64());
-        let b = transform_box(
-            &Aabb {
-                lo: c - r,
-                hi: c + r,
-            },
-            transform,
-        );
-        self.push_object(contract::OBJECT_SPHERE, self.spheres.len(), b);
-        self.spheres.push(s);
-    }
-
-    fn push_plane(&mut self, p: Plane, transform: Option<&DMat4>) {
-        // The original's finite plane: the cube of half-size `range` around its centre.
-        let c = DVec3::from(p.center.map(f64::from));
-        let r = DVec3::splat(p.range as f64);
-        let b = transform_box(
-            &Aabb {
-                lo: c - r,
-                hi: c + r,
-            },
-            transform,
-        );
-        self.push_object(contract::OBJECT_PLANE, self.planes.len(), b);
-        self.planes.push(p);
-    }
-
-    fn push_mesh(&mut self, mesh: TriangleMesh) -> Result<u32> {
-        let start = Instant::now();
-        let too_big = |what: &str| Error::Mesh {
-            path: mesh.path.clone(),
-            message: format!("the scene's meshes exceed 2^32 {what}"),
-        };
-        let first_node = if self.wide_bvh {
-            self.wide_nodes.len()
-        } else {
-            self.kd_nodes.len()
-        };
-        let first_node = u32::try_from(first_node).map_err(|_| too_big("tree nodes"))?;
-        let first_index = u32::try_from(self.kd_indices.len()).map_err(|_| too_big("indices"))?;
-        let (bounds, node_bytes) = if self.wide_bvh {
-            let tree =
-                WideBvh::build(&mesh.positions, &mesh.triangles).ok_or_else(|| Error::Mesh {
-                    path: mesh.path.clone(),
-                    message: "more than 2^28 triangles: too many for an 8-wide BVH (--lanes 1 \
-                              --mesh-tree kd renders it with a kd-tree)"
-                        .into(),
-                })?;
-            self.wide_nodes.extend(&tree.nodes);
-            // Each leaf slot: the triangle's vertices, numbered in the scene's vertex array,
-            // and its number in the mesh (kernels/wide_bvh.h reads them at once).
-            const { assert!(contract::WIDE_BVH_SLOT == 4) };
-            let first_vertex = self.vertices.len();
-            for &number in &tree.indices {
-                let tri = mesh.triangles[number as usize];
-                for v in tri {
-                    let v = u32::try_from(first_vertex + v as usize)
-                        .map_err(|_| too_big("vertices"))?;
-                    self.kd_indices.push(v);
-                }
-                self.kd_indices.push(number);
-            }
-            (tree.bounds, tree.nodes.len() * size_of::<WideBvhNode>())
-        } else {
-            let tree = KdTree::build(&mesh.positions, &mesh.triangles, &KdParams::default());
-            self.kd_nodes.extend(&tree.nodes);
-            self.kd_indices.extend(&tree.indices);
-            (tree.bounds, tree.nodes.len() * size_of::<KdNode>())
-        };
-        let (lo, hi) = bounds.to_f32_outward();
-        let desc = MeshDesc {
-            first_node,
-            first_index,
-            first_triangle: u32::try_from(self.triangles.len())
-                .map_err(|_| too_big("triangles"))?,
-            first_vertex: u32::try_from(self.vertices.len()).map_err(|_| too_big("vertices"))?,
-            has_normals: mesh.normals.is_some() as u32,
-            lo,
-            hi,
-        };
-        let bytes = node_bytes
-            + (self.kd_indices.len() - first_index as usize) * 4
-            + mesh.triangles.len() * 12
-            + mesh.positions.len() * 12
-            + mesh.normals.as_ref().map_or(0, |n| n.len() * 12);
-        self.triangles.extend(&mesh.triangles);
-        self.vertices.extend(&mesh.positions);
-        if let Some(normals) = &mesh.normals {
-            self.normals.extend(normals);
-        } else {
-            // Keep vertex and normal numbers aligned: normals of this mesh are never read.
-            self.normals.resize(self.vertices.len(), [0.0; 3]);
-        }
-        self.meshes.push(desc);
-        self.mesh_info.push(MeshInfo {
-            path: mesh.path,
-            triangles: mesh.triangles.len(),
-            degenerate: mesh.degenerate,
-            duplicates: mesh.duplicates,
-            instances: 0,
-            build_time: start.elapsed(),
-            bytes,
-        });
-        Ok(self.meshes.len() as u32 - 1)
+    /// Builds the object BVH over the object table and the light list: the last step of
+    /// packing, after every object's [`PackedScene::push_object`].
+    pub fn finish(&mut self) {
+        self.build_bvh();
+        self.collect_lights();
     }
 
     fn build_bvh(&mut self) {

@@ -12,7 +12,7 @@
 
 use super::ObjectBvh;
 use crate::contract::{OBJECT_KINDS, OBJECT_MESH, OBJECT_NONE, OBJECT_REVSURFACE, OBJECT_SLOTS};
-use crate::scene::{Scene, Shape};
+use crate::scene::{RevSurfaceShape, Scene, Shape};
 use std::fmt;
 
 /// A scene's feature set. Only materials that some object uses count.
@@ -73,7 +73,7 @@ impl Features {
             .objects
             .iter()
             .filter_map(|o| match &o.shape {
-                Shape::RevSurface { curve } => Some(curve.degree()),
+                Shape::RevSurface(RevSurfaceShape { curve }) => Some(curve.degree()),
                 _ => None,
             })
             .collect();

@@ -67,38 +67,58 @@ pub struct Material {
     pub location: Location,
 }
 
-/// The geometric part of an object.
+/// `Sphere { center V radius F }`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SphereShape {
+    pub center: DVec3,
+    pub radius: f64,
+}
+
+/// `Plane { normal V offset F range F [centerp V] [dirU V] [dirV V] }`: the points p with
+/// normal.p = offset (the normal as written, or for a normal whose length would overflow or
+/// underflow f64, normal and offset times one power of two ([`length_safe_scale`]); packing
+/// divides normal and offset by its length), visible from the side the normal points to.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlaneShape {
+    pub normal: DVec3,
+    pub offset: f64,
+    pub range: f64,
+    pub centerp: DVec3,
+    pub dir_u: DVec3,
+    pub dir_v: DVec3,
+}
+
+/// `Mesh { obj_file PATH }` or `TriangleMesh { obj_file PATH }`: the path as written,
+/// resolved like texture paths when the mesh is loaded.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshShape {
+    pub file: PathBuf,
+}
+
+/// `RevSurface { profile ... }`: the profile curve revolved about the y axis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RevSurfaceShape {
+    pub curve: curve::Curve,
+}
+
+/// The geometric part of an object: one variant a kind of object (the contract's
+/// `OBJECT_KINDS`), each packed for the device by its `pack::shapes` module.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Shape {
-    /// `Sphere { center V radius F }`.
-    Sphere { center: DVec3, radius: f64 },
-    /// `Plane { normal V offset F range F [centerp V] [dirU V] [dirV V] }`: the points p with
-    /// normal.p = offset (the normal as written, or for a normal whose length would overflow or
-    /// underflow f64, normal and offset times one power of two ([`length_safe_scale`]); packing
-    /// divides normal and offset by its length), visible from the side the normal points to.
-    Plane {
-        normal: DVec3,
-        offset: f64,
-        range: f64,
-        centerp: DVec3,
-        dir_u: DVec3,
-        dir_v: DVec3,
-    },
-    /// `Mesh { obj_file PATH }` or `TriangleMesh { obj_file PATH }`: the path as written,
-    /// resolved like texture paths when the mesh is loaded.
-    Mesh { file: PathBuf },
-    /// `RevSurface { profile ... }`: the profile curve revolved about the y axis.
-    RevSurface { curve: curve::Curve },
+    Sphere(SphereShape),
+    Plane(PlaneShape),
+    Mesh(MeshShape),
+    RevSurface(RevSurfaceShape),
 }
 
 impl Shape {
     /// Its kind: the contract's `OBJECT_*`.
     pub fn kind(&self) -> u32 {
         match self {
-            Shape::Sphere { .. } => contract::OBJECT_SPHERE,
-            Shape::Plane { .. } => contract::OBJECT_PLANE,
-            Shape::Mesh { .. } => contract::OBJECT_MESH,
-            Shape::RevSurface { .. } => contract::OBJECT_REVSURFACE,
+            Shape::Sphere(_) => contract::OBJECT_SPHERE,
+            Shape::Plane(_) => contract::OBJECT_PLANE,
+            Shape::Mesh(_) => contract::OBJECT_MESH,
+            Shape::RevSurface(_) => contract::OBJECT_REVSURFACE,
         }
     }
 }

@@ -28,7 +28,10 @@
 //! follows what the scene holds, not how many tokens or what counts it claims.
 
 use super::curve::{Curve, CurveKind};
-use super::{CameraDesc, Material, MaterialKind, Object, Scene, Shape, TextureFiles};
+use super::{
+    CameraDesc, Material, MaterialKind, MeshShape, Object, PlaneShape, RevSurfaceShape, Scene,
+    Shape, SphereShape, TextureFiles,
+};
 use crate::error::{Location, ParseError, Warning, quote};
 use glam::{DMat4, DVec2, DVec3};
 use std::num::IntErrorKind;
@@ -421,9 +424,9 @@ fn revsurface_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Shap
             _ => return Err(cur.unknown_field(key, keyword, &["profile", "}"])),
         }
     };
-    Ok(Shape::RevSurface {
+    Ok(Shape::RevSurface(RevSurfaceShape {
         curve: cur.required(curve, "profile", keyword, close)?,
-    })
+    }))
 }
 
 fn mesh_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Shape> {
@@ -437,9 +440,9 @@ fn mesh_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Shape> {
             _ => return Err(cur.unknown_field(key, keyword, &["obj_file", "}"])),
         }
     };
-    Ok(Shape::Mesh {
+    Ok(Shape::Mesh(MeshShape {
         file: cur.required(file, "obj_file", keyword, close)?,
-    })
+    }))
 }
 
 /// `Transform { Op* Object }`. As in the course framework's parser, each op multiplies the
@@ -519,10 +522,10 @@ fn sphere_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Shape> {
             _ => return Err(cur.unknown_field(key, keyword, &SPHERE_FIELDS)),
         }
     };
-    Ok(Shape::Sphere {
+    Ok(Shape::Sphere(SphereShape {
         center: cur.required(center, "center", keyword, close)?,
         radius: cur.required(radius, "radius", keyword, close)?,
-    })
+    }))
 }
 
 fn plane_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Shape> {
@@ -548,14 +551,14 @@ fn plane_block<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> Result<Shape> {
     let range = cur.required(range, "range", keyword, close)?;
     let (normal, offset) =
         length_safe_plane(normal, offset).map_err(|m| cur.error_at(offset_token, m))?;
-    Ok(Shape::Plane {
+    Ok(Shape::Plane(PlaneShape {
         normal,
         offset,
         range,
         centerp: centerp.map_or(DVec3::ZERO, |(v, _)| v),
         dir_u: dir_u.map_or(DVec3::ZERO, |(v, _)| v),
         dir_v: dir_v.map_or(DVec3::ZERO, |(v, _)| v),
-    })
+    }))
 }
 
 /// Whether the device can hold `value` as an f32: finite there, and not 0 unless it is 0 (a

@@ -9,7 +9,7 @@
 //! going to the earlier of those; a bump map's red channel is differentiated centrally along u and
 //! v into gradients in [-1, 1].
 
-use super::{Scene, Shape};
+use super::{PlaneShape, Scene, Shape};
 use crate::contract::{self, MAP_BUMP8, MAP_RGB8, MAP_TYPE8, TextureMap};
 use crate::error::{Error, Result};
 use crate::input::{gib, host_available_bytes};
@@ -431,14 +431,16 @@ fn check_mapped_shapes(scene: &Scene, pack: &TexturePack) -> Result<()> {
             continue;
         }
         match &object.shape {
-            Shape::Plane { dir_u, dir_v, .. } if dir_u.length() == 0.0 || dir_v.length() == 0.0 => {
+            Shape::Plane(PlaneShape { dir_u, dir_v, .. })
+                if dir_u.length() == 0.0 || dir_v.length() == 0.0 =>
+            {
                 return Err(Error::Invalid(format!(
                     "{}: this plane's material has texture maps, so the plane needs non-zero \
                      `dirU` and `dirV` (they set the texture's axes and tile size)",
                     object.location
                 )));
             }
-            Shape::Mesh { .. } | Shape::RevSurface { .. } => {
+            Shape::Mesh(_) | Shape::RevSurface(_) => {
                 return Err(Error::Invalid(format!(
                     "{}: this object's material has texture maps, but meshes and surfaces of \
                      revolution carry no texture coordinates in clpt (give it a material \

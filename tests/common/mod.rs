@@ -167,10 +167,11 @@ pub fn run(kernel: &ocl::Kernel, n: usize) {
         .expect("probe run");
 }
 
-use clpt::contract::{Material, Plane, Sphere};
+use clpt::contract::{Material, OBJECT_PLANE, OBJECT_SPHERE, Plane, Sphere};
 use clpt::device::kernel::NamedArgs;
 use clpt::device::upload::SceneBuffers;
 use clpt::pack::PackedScene;
+use clpt::pack::shapes::cube_box;
 use clpt::scene::CameraDesc;
 use clpt::scene::camera::CameraBasis;
 use glam::DVec3;
@@ -187,7 +188,27 @@ pub fn packed(spheres: Vec<Sphere>, planes: Vec<Plane>, materials: Vec<Material>
         aperture: 0.0,
     })
     .expect("camera");
-    PackedScene::from_parts(camera, materials, spheres, planes)
+    let mut packed = PackedScene {
+        camera,
+        materials,
+        ..PackedScene::default()
+    };
+    // Untransformed, in device coordinates (origin 0); each plane's box centred on
+    // `normal * offset`, as a scene file's is.
+    for s in spheres {
+        let world_box = cube_box(s.center_f64(), s.radius_f64(), None);
+        packed.push_object(OBJECT_SPHERE, packed.spheres.len(), world_box);
+        packed.spheres.push(s);
+    }
+    for mut p in planes {
+        p.center = p.normal.map(|c| c * p.offset);
+        let centre = DVec3::from(p.center.map(f64::from));
+        let world_box = cube_box(centre, f64::from(p.range), None);
+        packed.push_object(OBJECT_PLANE, packed.planes.len(), world_box);
+        packed.planes.push(p);
+    }
+    packed.finish();
+    packed
 }
 
 /// Runs a probe that takes the scene and rays of 9 floats (o, d, w) and writes `width` floats

@@ -9,7 +9,7 @@
 
 use clpt::contract::{Plane, Sphere};
 use clpt::scene::camera::CameraBasis;
-use clpt::scene::{MaterialKind, Scene, Shape};
+use clpt::scene::{MaterialKind, PlaneShape, Scene, Shape, SphereShape};
 use glam::DVec3;
 use rand::{Rng, RngExt};
 
@@ -108,15 +108,15 @@ impl World {
                 "the reference takes no transforms"
             );
             match object.shape {
-                Shape::Sphere { center, radius } => {
+                Shape::Sphere(SphereShape { center, radius }) => {
                     world.spheres.push((center, radius, object.material))
                 }
-                Shape::Plane {
+                Shape::Plane(PlaneShape {
                     normal,
                     offset,
                     range,
                     ..
-                } => {
+                }) => {
                     let len = normal.length();
                     world.planes.push(WorldPlane {
                         normal: normal / len,

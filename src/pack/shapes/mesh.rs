@@ -1,0 +1,186 @@
+//! Triangle meshes (kernels/triangle.h, kdtree.h, wide_bvh.h): each OBJ file loaded once for
+//! each way it is placed, its kd-tree (or its 8-wide BVH on a CPU) built once however many
+//! instances use it, and one instance an object; an emitting mesh's triangles that some path
+//! can see are light-list entries.
+
+use super::{HostShape, MeshFiles, ObjectPlace, Placement, transform_box};
+use crate::accel::aabb::Aabb;
+use crate::accel::kdtree::{KdParams, KdTree};
+use crate::accel::wide_bvh::WideBvh;
+use crate::contract::{self, KdNode, Light, MeshDesc, MeshInstance, WideBvhNode};
+use crate::error::{Error, Result};
+use crate::pack::convert::f32x3;
+use crate::pack::lights::{Affine, LightSources, Room, TRIANGLE, constant_emission, dvec};
+use crate::pack::{MeshInfo, PackedScene};
+use crate::scene::MeshShape;
+use crate::scene::mesh::TriangleMesh;
+use glam::DVec3;
+use std::f64::consts::PI;
+use std::time::Instant;
+
+impl HostShape for MeshShape {
+    /// An instance of the OBJ file's mesh, loaded and pushed once for each way it is placed
+    /// (its vertices moved to the device's origin, or left for a transform to move).
+    fn pack(
+        &self,
+        packed: &mut PackedScene,
+        object: &ObjectPlace,
+        files: &mut MeshFiles,
+    ) -> Result<usize> {
+        let at = &object.at;
+        let path = crate::scene::resolve("mesh", &self.file, files.base_dir, object.location)?;
+        let key = (path, at.transform.is_none());
+        let mesh = match files.loaded.get(&key) {
+            Some(&m) => m,
+            None => {
+                let mut mesh = TriangleMesh::load_within(&key.0, files.max_bytes)?;
+                if at.shift != DVec3::ZERO {
+                    for v in &mut mesh.positions {
+                        *v = f32x3(DVec3::from(v.map(f64::from)) + at.shift);
+                    }
+                }
+                let m = push_mesh(packed, mesh)?;
+                files.loaded.insert(key, m);
+                m
+            }
+        };
+        packed.mesh_info[mesh as usize].instances += 1;
+        let transform = packed.push_transform(at.transform);
+        packed.mesh_instances.push(MeshInstance {
+            mesh,
+            transform,
+            material: object.material,
+        });
+        Ok(packed.mesh_instances.len() - 1)
+    }
+
+    /// Its mesh's box (the tree's, rounded outward to f32) under the instance's transform.
+    fn world_bounds(&self, packed: &PackedScene, index: usize, at: &Placement) -> Aabb {
+        let desc = &packed.meshes[packed.mesh_instances[index].mesh as usize];
+        let bounds = Aabb {
+            lo: dvec(desc.lo),
+            hi: dvec(desc.hi),
+        };
+        transform_box(&bounds, at.transform)
+    }
+
+    /// Every triangle of the emitting meshes that some path can see, with its power (both sides).
+    fn emitters(scene: &LightSources, room: Option<&Room>, out: &mut Vec<(Light, f64)>) {
+        for (i, inst) in scene.mesh_instances.iter().enumerate() {
+            let Some(le) = constant_emission(scene.materials, inst.material) else {
+                continue;
+            };
+            let affine = Affine::of(scene.transforms, inst.transform);
+            let mesh = &scene.meshes[inst.mesh as usize];
+            let end = scene
+                .meshes
+                .get(inst.mesh as usize + 1)
+                .map_or(scene.triangles.len(), |next| next.first_triangle as usize);
+            let first = mesh.first_triangle as usize;
+            for (t, tri) in scene.triangles[first..end].iter().enumerate() {
+                let v = tri
+                    .map(|k| affine.point(dvec(scene.vertices[(mesh.first_vertex + k) as usize])));
+                let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
+                let cross = e1.cross(e2);
+                let area = 0.5 * cross.length();
+                if area.is_nan() || area <= 0.0 {
+                    continue; // degenerate: nothing to sample, and no ray hits it
+                }
+                if room.is_some_and(|room| room.clip(v[0], e1, e2, &TRIANGLE).is_none()) {
+                    continue; // wholly outside the room: no path sees it
+                }
+                let light = Light {
+                    kind: contract::OBJECT_MESH,
+                    index: i as u32,
+                    triangle: t as u32,
+                    material: inst.material,
+                    corner: f32x3(v[0]),
+                    edge1: f32x3(e1),
+                    edge2: f32x3(e2),
+                    normal: f32x3(cross.normalize()),
+                    area: area as f32,
+                    ..Light::default()
+                };
+                out.push((light, 2.0 * PI * le * area));
+            }
+        }
+    }
+}
+
+/// Pushes a loaded mesh: its tree, triangles, vertices and normals; its number.
+fn push_mesh(packed: &mut PackedScene, mesh: TriangleMesh) -> Result<u32> {
+    let start = Instant::now();
+    let too_big = |what: &str| Error::Mesh {
+        path: mesh.path.clone(),
+        message: format!("the scene's meshes exceed 2^32 {what}"),
+    };
+    let first_node = if packed.wide_bvh {
+        packed.wide_nodes.len()
+    } else {
+        packed.kd_nodes.len()
+    };
+    let first_node = u32::try_from(first_node).map_err(|_| too_big("tree nodes"))?;
+    let first_index = u32::try_from(packed.kd_indices.len()).map_err(|_| too_big("indices"))?;
+    let (bounds, node_bytes) = if packed.wide_bvh {
+        let tree = WideBvh::build(&mesh.positions, &mesh.triangles).ok_or_else(|| Error::Mesh {
+            path: mesh.path.clone(),
+            message: "more than 2^28 triangles: too many for an 8-wide BVH (--lanes 1 \
+                          --mesh-tree kd renders it with a kd-tree)"
+                .into(),
+        })?;
+        packed.wide_nodes.extend(&tree.nodes);
+        // Each leaf slot: the triangle's vertices, numbered in the scene's vertex array,
+        // and its number in the mesh (kernels/wide_bvh.h reads them at once).
+        const { assert!(contract::WIDE_BVH_SLOT == 4) };
+        let first_vertex = packed.vertices.len();
+        for &number in &tree.indices {
+            let tri = mesh.triangles[number as usize];
+            for v in tri {
+                let v =
+                    u32::try_from(first_vertex + v as usize).map_err(|_| too_big("vertices"))?;
+                packed.kd_indices.push(v);
+            }
+            packed.kd_indices.push(number);
+        }
+        (tree.bounds, tree.nodes.len() * size_of::<WideBvhNode>())
+    } else {
+        let tree = KdTree::build(&mesh.positions, &mesh.triangles, &KdParams::default());
+        packed.kd_nodes.extend(&tree.nodes);
+        packed.kd_indices.extend(&tree.indices);
+        (tree.bounds, tree.nodes.len() * size_of::<KdNode>())
+    };
+    let (lo, hi) = bounds.to_f32_outward();
+    let desc = MeshDesc {
+        first_node,
+        first_index,
+        first_triangle: u32::try_from(packed.triangles.len()).map_err(|_| too_big("triangles"))?,
+        first_vertex: u32::try_from(packed.vertices.len()).map_err(|_| too_big("vertices"))?,
+        has_normals: mesh.normals.is_some() as u32,
+        lo,
+        hi,
+    };
+    let bytes = node_bytes
+        + (packed.kd_indices.len() - first_index as usize) * 4
+        + mesh.triangles.len() * 12
+        + mesh.positions.len() * 12
+        + mesh.normals.as_ref().map_or(0, |n| n.len() * 12);
+    packed.triangles.extend(&mesh.triangles);
+    packed.vertices.extend(&mesh.positions);
+    if let Some(normals) = &mesh.normals {
+        packed.normals.extend(normals);
+    } else {
+        // Keep vertex and normal numbers aligned: normals of this mesh are never read.
+        packed.normals.resize(packed.vertices.len(), [0.0; 3]);
+    }
+    packed.meshes.push(desc);
+    packed.mesh_info.push(MeshInfo {
+        path: mesh.path,
+        triangles: mesh.triangles.len(),
+        degenerate: mesh.degenerate,
+        duplicates: mesh.duplicates,
+        instances: 0,
+        build_time: start.elapsed(),
+        bytes,
+    });
+    Ok(packed.meshes.len() as u32 - 1)
+}

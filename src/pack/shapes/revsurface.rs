@@ -1,0 +1,58 @@
+//! Surfaces of revolution (kernels/revsurface.h): the profile's Bezier segments, heights
+//! centred on 0 with the shift folded into the transform, so that the solver's tolerances are
+//! relative to the profile's own size (the packing module's doc). Light sampling does not pick
+//! them: BSDF sampling finds an emitting one.
+
+use super::{HostShape, MeshFiles, ObjectPlace, Placement, transform_box};
+use crate::accel::aabb::Aabb;
+use crate::contract::RevSurface;
+use crate::error::Result;
+use crate::pack::PackedScene;
+use crate::scene::RevSurfaceShape;
+use glam::{DMat4, DVec3};
+
+impl HostShape for RevSurfaceShape {
+    fn pack(
+        &self,
+        packed: &mut PackedScene,
+        object: &ObjectPlace,
+        _: &mut MeshFiles,
+    ) -> Result<usize> {
+        let at = &object.at;
+        let segments = self.curve.bezier_segments();
+        let points = || segments.iter().flatten();
+        let (y_min, y_max) = points().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.y), hi.max(p.y))
+        });
+        let y_mid = 0.5 * (y_min + y_max);
+        let placement = DMat4::from_translation(DVec3::new(0.0, y_mid, 0.0));
+        let centred = Some(at.transform.copied().unwrap_or(*at.to_device) * placement)
+            .filter(|m| *m != DMat4::IDENTITY);
+        let stored: Vec<[f32; 2]> = points()
+            .map(|p| [p.x as f32, (p.y - y_mid) as f32])
+            .collect();
+        let (radius, y_lo, y_hi) = stored.iter().fold(
+            (0.0f32, f32::INFINITY, f32::NEG_INFINITY),
+            |(r, lo, hi), p| (r.max(p[0].abs()), lo.min(p[1]), hi.max(p[1])),
+        );
+        let revsurface = RevSurface {
+            first_point: packed.rev_points.len() as u32,
+            num_segments: segments.len() as u32,
+            degree: self.curve.degree() as u32,
+            material: object.material,
+            transform: packed.push_transform(centred.as_ref()),
+            radius,
+            y_lo,
+            y_hi,
+        };
+        packed.rev_points.extend(stored);
+        packed.revsurfaces.push(revsurface);
+        Ok(packed.revsurfaces.len() - 1)
+    }
+
+    /// The profile's box revolved, under the object's whole move to the device.
+    fn world_bounds(&self, _: &PackedScene, _: usize, at: &Placement) -> Aabb {
+        let world = at.transform.copied().unwrap_or(*at.to_device);
+        transform_box(&self.curve.revolution_bounds(), Some(&world))
+    }
+}
