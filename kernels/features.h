@@ -15,7 +15,7 @@
  *                     defaults are written in types.h with the SHAPES(X) list)
  *   CLPT_REV_DEGREE   the one degree of every revolved surface (loops unrolled), 0: mixed
  *   CLPT_BVH          the object BVH (bvh.h); 0: objects are tested kind by kind in a loop
- *   CLPT_WALLS        without the BVH, axis planes tested as walls (objects.h walls_intersect):
+ *   CLPT_WALLS        without the BVH, axis planes tested as walls (plane.h walls_intersect):
  *                     set on CPUs where some axis has a wall on each side, as a room does
  *   CLPT_TRANSFORMS   objects inside Transform (transform.h's matrices applied per ray)
  *   CLPT_TEXTURES     texture maps of any kind (texture.h, texture coordinates, bump frames)

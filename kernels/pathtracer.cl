@@ -1,6 +1,6 @@
 /* pathtracer.cl: the render kernel (port of pathtracer.cuh and main.cu's renderPixel).
  *
- * Reads: the whole scene (objects.h's Scene: parameters, materials, objects, textures,
+ * Reads: the whole scene (scene.h's Scene: parameters, materials, objects, textures,
  * meshes and the BVH). Writes: adds, for every pixel of rows [row_start, row_start + row_count),
  * the `sample_count` path samples of indices sample_start... to `sum` (compensated by
  * `sum_lo`), their squares to `sum_sq`, and those of odd-numbered groups of four to `sum_odd`

@@ -29,7 +29,7 @@
  * the hull's annulus, prunes sub-segments beyond the nearest hit so far.
  *
  * Numbers: f32 throughout. Every tolerance below is a stated multiple of the rounding of the
- * terms involved, and the hit's error bound (rev_surface in objects.h) covers the widest. The
+ * terms involved, and the hit's error bound (rev_surface, below) covers the widest. The
  * terms are the sizes of the profile's coordinates and of the ray's origin, so both are kept
  * to the surface's own size: the host stores the profile with its heights centred on 0 (its
  * shift in the transform, src/pack/mod.rs), leaving the largest |y| half the profile's
@@ -45,6 +45,7 @@
 #include "aabb.h"
 #include "types.h"
 #include "vecmath.h"
+#include "scene.h"
 
 #define REV_MAX_DEGREE 7
 /* CLPT_REV_DEGREE > 0 says that every revolved surface of the scene has that degree: loops
@@ -631,6 +632,87 @@ inline float revsurface_intersect(__global const RevSurface* rs, __global const 
         }
     }
     return t_best < t_max ? t_start + t_best : t_limit;
+}
+
+/* The kind's three functions of SHAPES(X) (types.h; kernels/shapes.h dispatches through them):
+ * one object's hit, every object's without the object BVH, the surface at a hit. */
+inline void revsurface_object_intersect(const Scene* sc, uint index, float3 o, float3 d,
+                                       Hit* hit) {
+    __global const RevSurface* r = &sc->revsurfaces[index];
+    float scale;
+    to_object_space(sc, r->transform, &o, &d, &scale);
+    const float t_max = hit->t * scale;
+    uint seg = 0u;
+    RevWork work = {0u, 0u};
+    float u = 0.0f;
+    const float t = revsurface_intersect(r, sc->rev_points, o, d, t_max, &seg, &u, &work);
+    if (keep_hit(hit, t, t_max, scale, OBJECT_REVSURFACE, index)) {
+        hit->prim = seg;
+        hit->b1 = u;
+    }
+}
+
+inline void revsurface_intersect_all(const Scene* sc, float3 o, float3 d, Hit* hit) {
+    for (uint i = 0u; i < sc->params->counts[OBJECT_REVSURFACE]; ++i) {
+        revsurface_object_intersect(sc, i, o, d, hit);
+    }
+}
+
+/* The hit point moved onto the surface at the profile parameter found, its normal (the
+ * profile's normal (y', -x') revolved, turned with the profile where x < 0) and an error
+ * bound covering the Newton iteration's acceptance band. */
+inline void rev_surface(const Scene* sc, __global const RevSurface* r, Hit hit, float3 p_ray,
+                        float3* p, float3* p_error, float3* n) {
+    const uint degree = REV_DEGREE(r);
+    __global const float2* pts = sc->rev_points + r->first_point + hit.prim * (degree + 1u);
+    float size = 0.0f;
+    for (uint i = 0u; i <= degree; ++i) {
+        size = fmax(size, fabs(pts[i].x) + fabs(pts[i].y));
+    }
+    float2 s, ds;
+    bezier_eval(pts, degree, hit.b1, &s, &ds);
+    const float rho = sqrt(p_ray.x * p_ray.x + p_ray.z * p_ray.z);
+    const float3 radial = rho > 0.0f ? (float3)(p_ray.x / rho, 0.0f, p_ray.z / rho)
+                                     : (float3)(1.0f, 0.0f, 0.0f);
+    *p = fabs(s.x) * radial + (float3)(0.0f, s.y, 0.0f);
+    /* Where the profile's speed all but vanishes (repeated control points: the original's
+     * goblet meets the axis through three points 1e-6 apart) the derivative's direction is
+     * that of rounding-sized wiggles. The tangent is then the secant to a point at least
+     * 1e-4 of the segment's size away, towards the segment's interior. */
+    float2 tangent = ds;
+    if (length(ds) < 1e-2f * size) {
+        const float dir = hit.b1 < 0.5f ? 1.0f : -1.0f;
+        for (float du = 1.0f / 64.0f; du <= 0.5f; du *= 2.0f) {
+            float2 s2, ds2;
+            bezier_eval(pts, degree, hit.b1 + dir * du, &s2, &ds2);
+            tangent = dir * (s2 - s);
+            if (length(s2 - s) >= 1e-4f * size) {
+                break;
+            }
+        }
+    }
+    const float sign = s.x < 0.0f ? -1.0f : 1.0f;
+    *n = normalize(tangent.y * radial - sign * tangent.x * (float3)(0.0f, 1.0f, 0.0f));
+    /* The solvers accept a root whose residuals are within 1e-5 of their terms' size, the
+     * segment's largest coordinates among them (rev_residuals_ok), and sub-curves within
+     * a few roundings of a point by where the ray enters their box: the point is known to
+     * that band, and a ray spawned closer than it could find the surface it leaves. The
+     * profile's speed |ds| keeps the band from vanishing near the object's origin. */
+    *p_error = (float3)(2e-5f * (length(*p) + size + length(ds))) + fabs(p_ray - *p);
+}
+
+inline Surface revsurface_object_surface(const Scene* sc, uint index, Hit hit, float3 o, float3 d,
+                                         uint* transform) {
+    __global const RevSurface* r = &sc->revsurfaces[index];
+    Surface s;
+    *transform = r->transform;
+    s.material = r->material;
+    float scale;
+    to_object_space(sc, *transform, &o, &d, &scale);
+    const float t = hit.t * scale;
+    rev_surface(sc, r, hit, o + t * d, &s.p, &s.p_error, &s.n);
+    s.ns = s.n;
+    return s;
 }
 
 #endif

@@ -17,6 +17,7 @@
 #include "types.h"
 #include "vecmath.h"
 #include "ray.h"
+#include "scene.h"
 
 /* The nearest t in (0, t_max) where o + t d (d unit) meets the sphere, or t_max if none. */
 inline lfloat sphere_intersect(__global const Sphere* s, LFloat3 o, LFloat3 d, lfloat t_max) {
@@ -84,5 +85,34 @@ inline void sphere_tangents(float3 n, float3* dpdu, float3* dpdv) {
     *dpdv = (float3)(-n.y * n.x / rho, rho, -n.y * n.z / rho);
 }
 #endif
+
+/* The kind's three functions of SHAPES(X) (types.h; kernels/shapes.h dispatches through them):
+ * one object's hit, every object's without the object BVH, the surface at a hit. */
+inline void sphere_object_intersect(const Scene* sc, uint index, LFloat3 o, LFloat3 d, Hit* hit) {
+    __global const Sphere* s = &sc->spheres[index];
+    lfloat scale;
+    to_object_space(sc, s->transform, &o, &d, &scale);
+    const lfloat t_max = hit->t * scale;
+    keep_hit(hit, sphere_intersect(s, o, d, t_max), t_max, scale, OBJECT_SPHERE, index);
+}
+
+inline void sphere_intersect_all(const Scene* sc, LFloat3 o, LFloat3 d, Hit* hit) {
+    for (uint i = 0u; i < sc->params->counts[OBJECT_SPHERE]; ++i) {
+        sphere_object_intersect(sc, i, o, d, hit);
+    }
+}
+
+inline Surface sphere_object_surface(const Scene* sc, uint index, Hit hit, LFloat3 o, LFloat3 d,
+                                     uint* transform) {
+    __global const Sphere* sp = &sc->spheres[index];
+    Surface s;
+    *transform = sp->transform;
+    s.material = sp->material;
+    lfloat scale;
+    to_object_space(sc, *transform, &o, &d, &scale);
+    sphere_surface(sp, o, d, hit.t * scale, &s.p, &s.n, &s.p_error);
+    s.ns = s.n;
+    return s;
+}
 
 #endif

@@ -211,7 +211,7 @@ typedef struct RevSurface {
 } RevSurface;
 CLPT_ASSERT_SIZE(RevSurface, 32);
 
-/* The kinds of object, one list for what a ray hit (Hit.kind, objects.h), what a BVH leaf holds
+/* The kinds of object, one list for what a ray hit (Hit.kind, scene.h), what a BVH leaf holds
  * (ObjectRef) and what a light-list entry is (Light): each names an object by its kind and its
  * index among its kind. Each kind is also an entry of OBJECT_KINDS. */
 #define OBJECT_NONE 0u
@@ -272,9 +272,9 @@ typedef struct RenderParams {
     /* roulette's weight window: paths whose largest throughput component is below it play
      * roulette (pathtracer.cl) */
     float rr_threshold;
-    /* the planes tested as walls where there is no object BVH (objects.h, walls_intersect): at
-     * 2k the one whose normal is +axis k, at 2k + 1 the one whose normal is -axis k, or
-     * WALL_NONE (src/pack/mod.rs, `walls`) */
+    /* the planes tested as walls where there is no object BVH (plane.h, walls_intersect): at 2k
+     * the one whose normal is +axis k, at 2k + 1 the one whose normal is -axis k, or WALL_NONE
+     * (src/pack/mod.rs, `walls`) */
     uint walls[6];
     /* bit i: plane i is one of walls[] (the host picks only planes numbered below 32) */
     uint wall_mask;
@@ -336,8 +336,8 @@ CLPT_ASSERT_SIZE(ErrorRow, 20);
 #define SHAPES(X) SHAPE_SPHERE(X) SHAPE_PLANE(X) SHAPE_MESH(X) SHAPE_REVSURFACE(X)
 
 /* Every scene buffer, X(element type, parameter name), in the order kernels take them
- * (src/contract/buffers.rs; objects.h builds the Scene struct and the kernels' parameter list
- * from it). */
+ * (src/contract/buffers.rs; scene.h builds the Scene struct and the kernels' parameter list from
+ * it). */
 #define SCENE_BUFFERS(X) \
     X(RenderParams, params) \
     X(Material, materials) \

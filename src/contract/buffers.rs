@@ -1,5 +1,5 @@
 //! The scene's device buffers, listed once: kernels take them in this order (`SCENE_BUFFERS`
-//! in `kernels/types.h`, written from this list, from which `kernels/objects.h` builds the
+//! in `kernels/types.h`, written from this list, from which `kernels/scene.h` builds the
 //! `Scene` struct and every scene kernel's parameters), and the host binds each by its name.
 
 macro_rules! scene_buffers {

@@ -74,7 +74,7 @@ pub fn text() -> String {
         "",
         &[
             "Every scene buffer, X(element type, parameter name), in the order kernels take them \
-           (src/contract/buffers.rs; objects.h builds the Scene struct and the kernels' \
+           (src/contract/buffers.rs; scene.h builds the Scene struct and the kernels' \
            parameter list from it).",
         ],
     );

@@ -208,7 +208,7 @@ shared! {
         pub y_hi: f32,
     }
 
-    /// The kinds of object, one list for what a ray hit (Hit.kind, objects.h), what a BVH leaf
+    /// The kinds of object, one list for what a ray hit (Hit.kind, scene.h), what a BVH leaf
     /// holds (ObjectRef) and what a light-list entry is (Light): each names an object by its
     /// kind and its index among its kind. Each kind is also an entry of OBJECT_KINDS.
     pub const OBJECT_NONE: u32 = 0;
@@ -284,7 +284,7 @@ shared! {
         /// roulette's weight window: paths whose largest throughput component is below it play
         /// roulette (pathtracer.cl)
         pub rr_threshold: f32,
-        /// the planes tested as walls where there is no object BVH (objects.h, walls_intersect):
+        /// the planes tested as walls where there is no object BVH (plane.h, walls_intersect):
         /// at 2k the one whose normal is +axis k, at 2k + 1 the one whose normal is -axis k, or
         /// WALL_NONE (src/pack/mod.rs, `walls`)
         pub walls: [u32; 6],

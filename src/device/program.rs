@@ -12,35 +12,9 @@ use std::ffi::CString;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-/// Every file of `kernels/`, compiled into the binary so an installed clpt needs no sources.
-const EMBEDDED: &[(&str, &str)] = &[
-    ("features.h", include_str!("../../kernels/features.h")),
-    ("types.h", include_str!("../../kernels/types.h")),
-    ("vecmath.h", include_str!("../../kernels/vecmath.h")),
-    ("texture.h", include_str!("../../kernels/texture.h")),
-    ("lanes.h", include_str!("../../kernels/lanes.h")),
-    ("sobol.h", include_str!("../../kernels/sobol.h")),
-    ("rng.h", include_str!("../../kernels/rng.h")),
-    ("ray.h", include_str!("../../kernels/ray.h")),
-    ("camera.h", include_str!("../../kernels/camera.h")),
-    ("sphere.h", include_str!("../../kernels/sphere.h")),
-    ("plane.h", include_str!("../../kernels/plane.h")),
-    ("aabb.h", include_str!("../../kernels/aabb.h")),
-    ("transform.h", include_str!("../../kernels/transform.h")),
-    ("triangle.h", include_str!("../../kernels/triangle.h")),
-    ("kdtree.h", include_str!("../../kernels/kdtree.h")),
-    ("wide_bvh.h", include_str!("../../kernels/wide_bvh.h")),
-    ("bvh.h", include_str!("../../kernels/bvh.h")),
-    ("revsurface.h", include_str!("../../kernels/revsurface.h")),
-    ("shapes.h", include_str!("../../kernels/shapes.h")),
-    ("objects.h", include_str!("../../kernels/objects.h")),
-    ("material.h", include_str!("../../kernels/material.h")),
-    ("nee.h", include_str!("../../kernels/nee.h")),
-    ("trial.cl", include_str!("../../kernels/trial.cl")),
-    ("pathtracer.cl", include_str!("../../kernels/pathtracer.cl")),
-    ("probes.cl", include_str!("../../kernels/probes.cl")),
-    ("rng_probes.cl", include_str!("../../kernels/rng_probes.cl")),
-];
+/// Every file of `kernels/` (`.h`, `.cl`), compiled into the binary so an installed clpt needs no
+/// sources; `build.rs` lists the folder.
+const EMBEDDED: &[(&str, &str)] = include!(concat!(env!("OUT_DIR"), "/embedded_kernels.rs"));
 
 /// Where kernel sources come from.
 #[derive(Clone, Debug, Default)]

@@ -381,7 +381,7 @@ impl PackedScene {
     }
 }
 
-/// The planes that a program without an object BVH tests as walls (kernels/objects.h,
+/// The planes that a program without an object BVH tests as walls (kernels/plane.h,
 /// `walls_intersect`), as `RenderParams::walls` and `wall_mask`. For each axis and sign, the
 /// first untransformed plane whose normal is exactly that signed axis, among planes 0 to 31
 /// (the mask's bits). A one-sided plane meets only rays moving against its normal, so a ray

@@ -25,7 +25,7 @@ pub struct Features {
     pub rev_degree: usize,
     /// Objects tested through the object BVH rather than kind by kind.
     pub bvh: bool,
-    /// Without the BVH, axis planes tested as walls (kernels/objects.h, `walls_intersect`):
+    /// Without the BVH, axis planes tested as walls (kernels/plane.h, `walls_intersect`):
     /// set by the renderer where the packed planes have a wall on both sides of some axis
     /// ([`Features::walls_on`]); `of` leaves it off, `all` on.
     pub walls: bool,

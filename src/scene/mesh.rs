@@ -33,7 +33,7 @@ pub const DEFAULT_MAX_FILE_BYTES: u64 = 1 << 30;
 pub const MAX_VERTICES: usize = (u32::MAX / 2) as usize;
 
 /// The largest vertex coordinate accepted, in size. The kernels multiply differences of
-/// coordinates in f32 (edge cross products in `kernels/objects.h`, the watertight test's 2x2
+/// coordinates in f32 (edge cross products in `kernels/mesh.h`, the watertight test's 2x2
 /// determinants in `kernels/triangle.h`), which overflow from about 1.8e19 on: a triangle
 /// with corners at ±1e19, facing the camera in front of a light, rendered black.
 pub const MAX_COORDINATE: f32 = 1e18;
