@@ -31,6 +31,12 @@ repo=$PWD
 cd "$(dirname "$0")"
 ldconfig -p | grep -q libOpenCL.so.1 || export LD_LIBRARY_PATH=$PWD/lib
 export CLPT_SEED_DIR=$PWD/seed
+# The tests read scenes, assets and kernels/types.h at the checkout they were built in (its path
+# compiled in, built_in); that path leads to this copy of the repository where it is absent.
+built_in=$(cat built_in 2>/dev/null || true)
+if [ -n "$built_in" ] && [ ! -e "$built_in" ]; then
+  mkdir -p "$(dirname "$built_in")" && ln -s "$repo" "$built_in"
+fi
 seed=seed/testcases
 showcases="$seed/case0_texture.txt $seed/case1_dof_mesh.txt $seed/case2_softshadows_colorbleeding.txt
   $seed/case3_wineglass.txt $seed/case4_planets.txt $seed/case5_light_balls.txt"
@@ -54,7 +60,7 @@ tests() {
         -e test_geometry -e test_revsurface); do
     if [ $((SECONDS - start)) -gt "${TESTS_BUDGET:-400}" ]; then echo "$t: not run (budget)"; continue; fi
     timeout 300 ./$t --test-threads=4 > /tmp/$t.txt 2>&1; rc=$?
-    echo "$t on the H200 (exit $rc): $(grep 'test result' /tmp/$t.txt)"
+    echo "$t on the GPU (exit $rc): $(grep 'test result' /tmp/$t.txt)"
     [ $rc -ne 0 ] && grep -v "^ *[0-9]*: \|^ *at " /tmp/$t.txt | grep -v "^test .* ok$" | tail -30
   done
 }

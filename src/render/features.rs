@@ -141,9 +141,9 @@ impl Features {
     /// Whether a program without the object BVH gains by testing walls (`walls`) on `device`:
     /// where the wall slots (`RenderParams::walls`: src/pack/mod.rs, `walls`) hold a
     /// wall on each side of some axis, of which a ray tests one, on a CPU. Lone walls
-    /// (smallpt's front wall) test as in the loop. GPUs keep the loop until walls are measured
-    /// there: a warp's rays face both walls of an axis as a CPU's lanes do, but no GPU was at
-    /// hand (BENCHMARKS.md, "Walls").
+    /// (smallpt's front wall) test as in the loop. GPUs keep the loop: measured on an H100,
+    /// walls there were as fast on rooms and slower where other code weighs (the goblet 8%,
+    /// case0 14%; BENCHMARKS.md, "Walls" and "One definition of the contract").
     pub fn walls_on(&self, slots: &[u32; 6], device: &crate::device::DeviceDescription) -> bool {
         let none = crate::contract::WALL_NONE;
         !self.bvh
