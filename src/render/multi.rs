@@ -213,121 +213,185 @@ pub fn render_on_devices(
     };
     let start = Instant::now();
     let first_chunk = chunk_samples(total, devices.len()).min(total);
-    let queue = Mutex::new(Queue::new(total, devices.len(), first_chunk, balance));
     let mut first = Renderer::new(first_device, scene, sources, options.clone())?;
-    let accumulator = Mutex::new(Accumulator::new(first.width(), first.height()));
-    let shares = Mutex::new(
-        devices
-            .iter()
-            .map(|d| Share {
-                device: d.description.name.clone(),
-                ..Share::default()
-            })
-            .collect::<Vec<_>>(),
-    );
-    let done = AtomicU32::new(0);
-    // Samples per pixel of each device's chunk in flight, after its last pass.
-    let in_flight = Mutex::new(vec![0u32; devices.len()]);
-    // After every pass the progress callback sees every device's share, chunks in flight
-    // counted as far as they have come.
-    let report = |device: usize, chunk_done: u32| {
-        let mut in_flight = in_flight.lock().expect("no thread panicked");
+    let shared = Shared {
+        total,
+        first_sample: options.first_sample,
+        start,
+        queue: Mutex::new(Queue::new(total, devices.len(), first_chunk, balance)),
+        accumulator: Mutex::new(Accumulator::new(first.width(), first.height())),
+        shares: Mutex::new(
+            devices
+                .iter()
+                .map(|d| Share {
+                    device: d.description.name.clone(),
+                    ..Share::default()
+                })
+                .collect(),
+        ),
+        done: AtomicU32::new(0),
+        in_flight: Mutex::new(vec![0; devices.len()]),
+        failed: AtomicBool::new(false),
+        error: Mutex::new(None),
+        on_progress,
+    };
+    // The first chunk chooses the strategy; every other device renders with it.
+    let t0 = Instant::now();
+    let choice = first.render_chunk(options.first_sample, first_chunk, &mut |n| {
+        shared.report(0, n)
+    })?;
+    shared.finish(0, first_chunk, t0.elapsed().as_secs_f64());
+    let strategy = choice.strategy();
+    first.fix_strategy(strategy)?;
+    let mut pinned = options.clone();
+    pinned.pin(strategy);
+    std::thread::scope(|scope| {
+        for (i, device) in devices.iter().enumerate().skip(1) {
+            let (shared, pinned) = (&shared, &pinned);
+            scope.spawn(move || shared.join(i, device, scene, sources, pinned));
+        }
+        shared.run(0, first, true);
+    });
+    shared.into_render(choice)
+}
+
+/// What the devices of one render share while they render: the queue of chunks, the sum of
+/// their films, each device's share and the first error, and the progress they report.
+struct Shared<'a> {
+    total: u32,
+    first_sample: u32,
+    start: Instant,
+    queue: Mutex<Queue>,
+    accumulator: Mutex<Accumulator>,
+    shares: Mutex<Vec<Share>>,
+    /// Samples per pixel of the chunks done.
+    done: AtomicU32,
+    /// Samples per pixel of each device's chunk in flight, after its last pass.
+    in_flight: Mutex<Vec<u32>>,
+    failed: AtomicBool,
+    error: Mutex<Option<Error>>,
+    on_progress: &'a (dyn Fn(&MultiProgress) + Sync),
+}
+
+impl Shared<'_> {
+    /// After every pass the progress callback sees every device's share, chunks in flight
+    /// counted as far as they have come (`chunk_done` samples of `device`'s).
+    fn report(&self, device: usize, chunk_done: u32) {
+        let mut in_flight = self.in_flight.lock().expect("no thread panicked");
         in_flight[device] = chunk_done;
-        let mut shares = shares.lock().expect("no thread panicked").clone();
+        let mut shares = self.shares.lock().expect("no thread panicked").clone();
         for (share, &n) in shares.iter_mut().zip(in_flight.iter()) {
             share.samples += n;
         }
-        on_progress(&MultiProgress {
-            spp_done: done.load(Ordering::Relaxed) + in_flight.iter().sum::<u32>(),
-            spp_total: total,
-            elapsed: start.elapsed(),
+        (self.on_progress)(&MultiProgress {
+            spp_done: self.done.load(Ordering::Relaxed) + in_flight.iter().sum::<u32>(),
+            spp_total: self.total,
+            elapsed: self.start.elapsed(),
             shares: &shares,
         });
-    };
-    let finish = |device: usize, samples: u32, seconds: f64| {
-        (queue.lock().expect("no thread panicked")).measured(device, samples, seconds);
+    }
+
+    /// `device` finished a chunk of `samples` in `seconds`: the queue learns its rate, the
+    /// chunk leaves the in-flight count as it joins the done one.
+    fn finish(&self, device: usize, samples: u32, seconds: f64) {
+        (self.queue.lock().expect("no thread panicked")).measured(device, samples, seconds);
         {
-            // The chunk leaves the in-flight count as it joins the done one.
-            let mut in_flight = in_flight.lock().expect("no thread panicked");
+            let mut in_flight = self.in_flight.lock().expect("no thread panicked");
             in_flight[device] = 0;
-            let mut shares = shares.lock().expect("no thread panicked");
+            let mut shares = self.shares.lock().expect("no thread panicked");
             shares[device].samples += samples;
             shares[device].seconds += seconds;
-            done.fetch_add(samples, Ordering::Relaxed);
+            self.done.fetch_add(samples, Ordering::Relaxed);
         }
-        report(device, 0);
-    };
-    // The first chunk chooses the strategy.
-    let t0 = Instant::now();
-    let choice = first.render_chunk(options.first_sample, first_chunk, &mut |n| report(0, n))?;
-    finish(0, first_chunk, t0.elapsed().as_secs_f64());
-    let strategy = choice.strategy();
-    first.fix_strategy(strategy)?;
-    let failed = AtomicBool::new(false);
-    let error: Mutex<Option<Error>> = Mutex::new(None);
-    // A device renders its chunks into its own film, read back and added once at the end.
-    let work = |device: usize, renderer: &mut Renderer, mut rendered: bool| -> Result<()> {
+        self.report(device, 0);
+    }
+
+    /// The render's first error; every device stops claiming.
+    fn fail(&self, e: Error) {
+        self.failed.store(true, Ordering::Relaxed);
+        self.error
+            .lock()
+            .expect("no thread panicked")
+            .get_or_insert(e);
+    }
+
+    /// Device `device` after the first: its renderer with the chosen strategy (`pinned`),
+    /// whose probe measures the device's rate before it claims, so that a slow one stays out
+    /// without holding up the end with a group of eight samples.
+    fn join(
+        &self,
+        device: usize,
+        on: &Device,
+        scene: &Scene,
+        sources: &KernelSources,
+        pinned: &RenderOptions,
+    ) {
+        let probed = Renderer::new(on, scene, sources, pinned.clone()).and_then(|mut r| {
+            let rate = r.probe_rate()?;
+            self.queue
+                .lock()
+                .expect("no thread panicked")
+                .probed(device, rate);
+            Ok(r)
+        });
+        match probed {
+            Ok(r) => self.run(device, r, false),
+            Err(e) => self.fail(e),
+        }
+    }
+
+    /// `device` renders chunks until the queue is empty or a device failed.
+    fn run(&self, device: usize, mut renderer: Renderer, rendered: bool) {
+        if let Err(e) = self.work(device, &mut renderer, rendered) {
+            self.fail(e);
+        }
+    }
+
+    /// A device renders its chunks into its own film, read back and added once at the end.
+    fn work(&self, device: usize, renderer: &mut Renderer, mut rendered: bool) -> Result<()> {
         loop {
-            let claim = queue.lock().expect("no thread panicked").claim(device);
-            let Some((a, n)) = claim.filter(|_| !failed.load(Ordering::Relaxed)) else {
+            let claim = self.queue.lock().expect("no thread panicked").claim(device);
+            let Some((a, n)) = claim.filter(|_| !self.failed.load(Ordering::Relaxed)) else {
                 break;
             };
             let t0 = Instant::now();
-            renderer.render_chunk(options.first_sample + a, n, &mut |k| report(device, k))?;
-            finish(device, n, t0.elapsed().as_secs_f64());
+            renderer.render_chunk(self.first_sample + a, n, &mut |k| self.report(device, k))?;
+            self.finish(device, n, t0.elapsed().as_secs_f64());
             rendered = true;
         }
-        if rendered && !failed.load(Ordering::Relaxed) {
+        if rendered && !self.failed.load(Ordering::Relaxed) {
             let state = renderer.film_state()?;
-            accumulator.lock().expect("no thread panicked").add(&state);
+            self.accumulator
+                .lock()
+                .expect("no thread panicked")
+                .add(&state);
         }
         Ok(())
-    };
-    let run = |device: usize, mut renderer: Renderer, rendered: bool| {
-        if let Err(e) = work(device, &mut renderer, rendered) {
-            failed.store(true, Ordering::Relaxed);
-            error.lock().expect("no thread panicked").get_or_insert(e);
-        }
-    };
-    std::thread::scope(|scope| {
-        for (i, device) in devices.iter().enumerate().skip(1) {
-            let (run, error, failed, queue) = (&run, &error, &failed, &queue);
-            scope.spawn(move || {
-                let mut pinned = options.clone();
-                pinned.pin(strategy);
-                // A probe measures the device's rate before it claims: a slow one stays
-                // out without holding up the end with a group of eight samples.
-                let probed = Renderer::new(device, scene, sources, pinned).and_then(|mut r| {
-                    let rate = r.probe_rate()?;
-                    queue.lock().expect("no thread panicked").probed(i, rate);
-                    Ok(r)
-                });
-                match probed {
-                    Ok(r) => run(i, r, false),
-                    Err(e) => {
-                        failed.store(true, Ordering::Relaxed);
-                        error.lock().expect("no thread panicked").get_or_insert(e);
-                    }
-                }
-            });
-        }
-        run(0, first, true);
-    });
-    if let Some(e) = error.into_inner().expect("no thread panicked") {
-        return Err(e);
     }
-    // The queue hands every sample out once and its last claimant never stops early: say so
-    // rather than write an image of fewer samples than asked.
-    let rendered = done.into_inner();
-    if rendered != total {
-        return Err(Error::Invalid(format!(
-            "several devices rendered {rendered} of {total} samples per pixel (a bug)"
-        )));
+
+    /// The render: the first error if any; else the summed film, unless a sample is missing.
+    fn into_render(self, choice: Choice) -> Result<MultiRender> {
+        if let Some(e) = self.error.into_inner().expect("no thread panicked") {
+            return Err(e);
+        }
+        // The queue hands every sample out once and its last claimant never stops early: say
+        // so rather than write an image of fewer samples than asked.
+        let rendered = self.done.into_inner();
+        if rendered != self.total {
+            return Err(Error::Invalid(format!(
+                "several devices rendered {rendered} of {} samples per pixel (a bug)",
+                self.total
+            )));
+        }
+        Ok(MultiRender {
+            film: self
+                .accumulator
+                .into_inner()
+                .expect("no thread panicked")
+                .film(),
+            choice,
+            shares: self.shares.into_inner().expect("no thread panicked"),
+            elapsed: self.start.elapsed(),
+        })
     }
-    Ok(MultiRender {
-        film: accumulator.into_inner().expect("no thread panicked").film(),
-        choice,
-        shares: shares.into_inner().expect("no thread panicked"),
-        elapsed: start.elapsed(),
-    })
 }
