@@ -893,36 +893,8 @@ fn render_on_devices(
     output: &Path,
     list: &[String],
 ) -> Result<u8> {
-    for (given, flag) in [
-        (args.resume.is_some(), "--resume"),
-        (args.checkpoint.is_some(), "--checkpoint"),
-        (args.report.is_some(), "--report"),
-        (args.plot.is_some(), "--plot"),
-        (args.reference.is_some(), "--reference"),
-        (args.target_error.is_some(), "--target-error"),
-        (args.time.is_some(), "--time"),
-        (args.dump_kernel.is_some(), "--dump-kernel"),
-    ] {
-        if given {
-            bail!("{flag} works with one device; several devices render a sample count (--spp)");
-        }
-    }
-    if list.is_empty() {
-        bail!("--device all: no OpenCL device found");
-    }
-    let mut devices = list
-        .iter()
-        .map(|d| {
-            // One host thread for each other device's driver (device::select_reserving).
-            device::select_reserving(Some(d), list.len() as u32 - 1)
-                .with_context(|| format!("--device entry `{d}`"))
-                .map(|device| (d.clone(), device))
-        })
-        .collect::<Result<Vec<_>>>()?;
-    // The first device renders the first chunk and the trial: a CPU's would hold up the
-    // rest, so CPUs go last.
-    devices.sort_by_key(|(_, d)| d.description.kind == "CPU");
-    let (list, devices): (Vec<String>, Vec<_>) = devices.into_iter().unzip();
+    check_multi_args(args)?;
+    let (list, devices) = open_devices(list)?;
     let total = options.spp.unwrap_or(64);
     let bar = if args.quiet {
         ProgressBar::hidden()
@@ -941,32 +913,13 @@ fn render_on_devices(
         &args.device.sources(),
         options,
         multi::Balance::default(),
-        &|p: &multi::MultiProgress| {
-            bar.set_position(p.spp_done as u64);
-            let rate = pixels * f64::from(p.spp_done) / p.elapsed.as_secs_f64().max(1e-9);
-            let shares: Vec<String> = p
-                .shares
-                .iter()
-                .map(|s| {
-                    format!(
-                        "{}%",
-                        (100 * s.samples).checked_div(p.spp_done).unwrap_or(0)
-                    )
-                })
-                .collect();
-            bar.set_message(format!(
-                "{:.2} Mpaths/s, shares {}",
-                rate / 1e6,
-                shares.join(" ")
-            ));
-        },
+        &|p: &multi::MultiProgress| show_multi_progress(&bar, p, pixels),
     )?;
     bar.finish_and_clear();
     let film = result.film.film(total);
     film.write(output)?;
-    let strategy = result.choice.strategy();
-    let names: Vec<&str> = result.shares.iter().map(|s| s.device.as_str()).collect();
     if let Some(path) = &args.film {
+        let names: Vec<&str> = result.shares.iter().map(|s| s.device.as_str()).collect();
         FilmRecord {
             scene_file: args.scene.as_deref(),
             options,
@@ -977,7 +930,7 @@ fn render_on_devices(
             path,
             &result.film,
             (scene.camera.width, scene.camera.height),
-            strategy,
+            result.choice.strategy(),
             total,
             result.elapsed.as_secs_f64(),
         )?;
@@ -1008,6 +961,65 @@ fn render_on_devices(
         e.relmse
     );
     Ok(0)
+}
+
+/// Refuses what several devices do not do (yet): they render a sample count to an image.
+fn check_multi_args(args: &RenderArgs) -> Result<()> {
+    for (given, flag) in [
+        (args.resume.is_some(), "--resume"),
+        (args.checkpoint.is_some(), "--checkpoint"),
+        (args.report.is_some(), "--report"),
+        (args.plot.is_some(), "--plot"),
+        (args.reference.is_some(), "--reference"),
+        (args.target_error.is_some(), "--target-error"),
+        (args.time.is_some(), "--time"),
+        (args.dump_kernel.is_some(), "--dump-kernel"),
+    ] {
+        if given {
+            bail!("{flag} works with one device; several devices render a sample count (--spp)");
+        }
+    }
+    Ok(())
+}
+
+/// The devices of `--device` `list`, each with its entry, GPUs first: the first device renders
+/// the first chunk and the trial, and a CPU's would hold up the rest.
+fn open_devices(list: &[String]) -> Result<(Vec<String>, Vec<device::Device>)> {
+    if list.is_empty() {
+        bail!("--device all: no OpenCL device found");
+    }
+    let mut devices = list
+        .iter()
+        .map(|d| {
+            // One host thread for each other device's driver (device::select_reserving).
+            device::select_reserving(Some(d), list.len() as u32 - 1)
+                .with_context(|| format!("--device entry `{d}`"))
+                .map(|device| (d.clone(), device))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    devices.sort_by_key(|(_, d)| d.description.kind == "CPU");
+    Ok(devices.into_iter().unzip())
+}
+
+/// The progress bar of several devices: samples done, the rate, each device's share.
+fn show_multi_progress(bar: &ProgressBar, p: &multi::MultiProgress, pixels: f64) {
+    bar.set_position(p.spp_done as u64);
+    let rate = pixels * f64::from(p.spp_done) / p.elapsed.as_secs_f64().max(1e-9);
+    let shares: Vec<String> = p
+        .shares
+        .iter()
+        .map(|s| {
+            format!(
+                "{}%",
+                (100 * s.samples).checked_div(p.spp_done).unwrap_or(0)
+            )
+        })
+        .collect();
+    bar.set_message(format!(
+        "{:.2} Mpaths/s, shares {}",
+        rate / 1e6,
+        shares.join(" ")
+    ));
 }
 
 /// SIGINT and SIGTERM: the first sets the flag the render loop reads after each pass (it then
