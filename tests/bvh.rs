@@ -9,7 +9,7 @@ mod common;
 use clpt::accel::aabb::Aabb;
 use clpt::accel::bvh::{self, Bvh, MAX_DEPTH, morton_code};
 use clpt::contract::{BVH_EMPTY, BVH_LEAF};
-use common::traversal::BvhTraversal;
+use common::traversal::bvh_intersect;
 use glam::DVec3;
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
@@ -220,7 +220,7 @@ fn check_rays(balls: &[Ball], bvh: &Bvh, origins: &Aabb, seed: u64) -> RayCounts
     });
     let (mut hits, mut endless_misses, mut calls) = (0usize, 0usize, 0usize);
     for (ray, (&(o, d, t_max), &expected)) in rays.iter().zip(&brute).enumerate() {
-        let got = bvh.intersect(o, d, t_max, |object, limit| {
+        let got = bvh_intersect(bvh, o, d, t_max, |object, limit| {
             calls += 1;
             assert!(
                 (object as usize) < balls.len(),
@@ -494,7 +494,9 @@ fn empty_input_and_one_object() {
     assert_eq!(empty.bounds, Aabb::EMPTY);
     assert_eq!(empty.stats().max_depth, 0);
     assert_eq!(
-        empty.intersect(DVec3::ZERO, DVec3::X, f64::INFINITY, |_, _| Some(1.0)),
+        bvh_intersect(&empty, DVec3::ZERO, DVec3::X, f64::INFINITY, |_, _| Some(
+            1.0
+        )),
         None
     );
 
@@ -507,11 +509,11 @@ fn empty_input_and_one_object() {
     assert_eq!((stats.nodes, stats.leaves, stats.max_depth), (1, 1, 1));
     assert_eq!(stats.sah_cost, 2.0);
     // A ray missing the ball: the empty slot's inverted box must not be entered either.
-    let missed = bvh.intersect(DVec3::ZERO, -DVec3::X, f64::INFINITY, |object, _| {
+    let missed = bvh_intersect(&bvh, DVec3::ZERO, -DVec3::X, f64::INFINITY, |object, _| {
         panic!("hit called for object {object:#x}")
     });
     assert_eq!(missed, None);
-    let got = bvh.intersect(DVec3::ZERO, DVec3::X, f64::INFINITY, |_, t| {
+    let got = bvh_intersect(&bvh, DVec3::ZERO, DVec3::X, f64::INFINITY, |_, t| {
         ball.hit(DVec3::ZERO, DVec3::X, t)
     });
     assert_eq!(got, Some((2.0, 0)));
@@ -537,7 +539,8 @@ fn unbounded_objects_stay_outside_the_tree() {
     assert_eq!(bvh.unbounded, [0, 2, 4]);
     // Only the bounded objects are offered, the nearest first.
     let mut offered = Vec::new();
-    let got = bvh.intersect(
+    let got = bvh_intersect(
+        &bvh,
         DVec3::new(-1.0, 0.5, 0.5),
         DVec3::X,
         f64::INFINITY,
@@ -556,7 +559,7 @@ fn unbounded_objects_stay_outside_the_tree() {
     let bvh = Bvh::build(&none);
     check_structure(&bvh, &none);
     assert_eq!(
-        bvh.intersect(DVec3::ZERO, DVec3::X, f64::INFINITY, |_, _| Some(1.0)),
+        bvh_intersect(&bvh, DVec3::ZERO, DVec3::X, f64::INFINITY, |_, _| Some(1.0)),
         None
     );
 }

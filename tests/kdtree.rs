@@ -14,7 +14,7 @@ mod common;
 
 use clpt::accel::aabb::Aabb;
 use clpt::accel::kdtree::{ENTRY_SLACK, KdParams, KdTree, MAX_DEPTH};
-use common::traversal::{self, KdTraversal};
+use common::traversal::{self, kd_intersect};
 use glam::DVec3;
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
@@ -383,7 +383,7 @@ fn compare(
 fn check_against_brute_force(mesh: &Mesh, tree: &KdTree, n: usize, seed: u64) -> usize {
     let rays = rays(&mesh.valid_bounds(), n, seed);
     let got = common::on_all_cores(&rays, |r| {
-        tree.intersect(&mesh.positions, &mesh.triangles, r.0, r.1, r.2, r.3)
+        kd_intersect(tree, &mesh.positions, &mesh.triangles, r.0, r.1, r.2, r.3)
     });
     let triangles = mesh.all_vertices();
     let want = common::on_all_cores(&rays, |r| brute_force(&triangles, r.0, r.1, r.2, r.3));
@@ -690,13 +690,13 @@ fn empty_single_and_broken_meshes_never_panic() {
             KdTree::build_median(positions, triangles),
         ] {
             check_structure(&mesh, &tree, 15);
-            let hit = tree.intersect(positions, triangles, o, d, 0.0, f64::INFINITY);
+            let hit = kd_intersect(&tree, positions, triangles, o, d, 0.0, f64::INFINITY);
             assert_eq!(hit.map(|h| h.1), want, "{name}");
             let stats = tree.stats(positions, triangles);
             assert_eq!(stats.skipped_triangles, skipped, "{name}");
             assert_eq!(stats.index_entries, triangles.len() - skipped);
             // A tree asked about a mesh it was not built from answers without panicking.
-            assert_eq!(tree.intersect(&[], &[], o, d, 0.0, 1.0), None);
+            assert_eq!(kd_intersect(&tree, &[], &[], o, d, 0.0, 1.0), None);
         }
     }
 }
@@ -754,7 +754,7 @@ fn dragon_matches_brute_force_and_median_tree() {
     let time = |t: &KdTree| {
         let start = Instant::now();
         let hits = common::on_all_cores(&rays, |r| {
-            t.intersect(&mesh.positions, &mesh.triangles, r.0, r.1, r.2, r.3)
+            kd_intersect(t, &mesh.positions, &mesh.triangles, r.0, r.1, r.2, r.3)
         });
         (hits, start.elapsed().as_secs_f64())
     };
@@ -872,7 +872,7 @@ fn crossing_triangles_get_small_leaves() {
         (hits, start.elapsed().as_secs_f64())
     };
     let (got, tree_seconds) =
-        time(&|r| tree.intersect(&mesh.positions, &mesh.triangles, r.0, r.1, r.2, r.3));
+        time(&|r| kd_intersect(&tree, &mesh.positions, &mesh.triangles, r.0, r.1, r.2, r.3));
     let triangles = mesh.all_vertices();
     let (want, brute_seconds) = time(&|r| brute_force(&triangles, r.0, r.1, r.2, r.3));
     println!(

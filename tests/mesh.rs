@@ -11,7 +11,7 @@ use clpt::pack::PackedScene;
 use clpt::scene::Scene;
 use clpt::scene::mesh::{self, TriangleMesh};
 use common::procedural;
-use common::traversal::KdTraversal;
+use common::traversal::kd_intersect;
 use glam::{DMat4, DVec3};
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
@@ -342,19 +342,27 @@ fn dragon_traversal_matches_host_tree_and_brute_force() {
         })
         .collect();
     let host = |o: DVec3, d: DVec3| {
-        tree.intersect(&mesh.positions, &mesh.triangles, o, d, 0.0, f64::INFINITY)
-            .map(|(t, tri)| {
-                let tv = mesh.triangles[tri as usize];
-                let (_, u, v) = moller_trumbore(
-                    o,
-                    d,
-                    vertex(&mesh, tv[0]),
-                    vertex(&mesh, tv[1]),
-                    vertex(&mesh, tv[2]),
-                )
-                .unwrap_or((t, 0.5, 0.25));
-                (t, tri, u, v)
-            })
+        kd_intersect(
+            &tree,
+            &mesh.positions,
+            &mesh.triangles,
+            o,
+            d,
+            0.0,
+            f64::INFINITY,
+        )
+        .map(|(t, tri)| {
+            let tv = mesh.triangles[tri as usize];
+            let (_, u, v) = moller_trumbore(
+                o,
+                d,
+                vertex(&mesh, tv[0]),
+                vertex(&mesh, tv[1]),
+                vertex(&mesh, tv[2]),
+            )
+            .unwrap_or((t, 0.5, 0.25));
+            (t, tri, u, v)
+        })
     };
     for (accel, got) in probe_every_tree(&device, &scene, &rays) {
         let what = format!("dragon ({accel}) vs host kd-tree");
