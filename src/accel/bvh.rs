@@ -21,8 +21,8 @@
 //! [`Bvh::unbounded`] for the renderer to test outside it. (Every clpt object is bounded today:
 //! planes use their finite `range` box, as in the original.)
 //!
-//! [`Bvh::intersect`] is the host traversal: the reference of the device's, and what the tests
-//! check against brute force.
+//! The host traversal, the reference of the device's that the tests check against brute force,
+//! is `bvh_intersect` in tests/common/traversal.rs.
 
 use super::aabb::Aabb;
 use crate::contract::{BVH_EMPTY, BVH_LEAF, BvhNode};

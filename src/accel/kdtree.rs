@@ -29,12 +29,13 @@
 //!   ([`KdParams::max_entries_per_triangle`]; a build that would is redone shallower). A leaf
 //!   holds more than 16 triangles only where they overlap so that no plane separates them
 //!   (copies of one triangle; the mesh loader drops exact copies) or at these bounds.
-//! - Traversal ([`KdTree::intersect`], the reference for the device code) visits leaves front
-//!   to back with a small stack and stops after the first leaf whose interval holds the nearest
-//!   hit found so far: no per-ray memory for tested triangles. A hit beyond the current leaf is
-//!   not taken as final, since a nearer one can still lie in a later leaf; it is kept as the best
-//!   so far, which is the same as clipping the leaf's hits to its interval but also accepts a
-//!   hit computed an ulp outside the leaf on a plane or box face (see [`KdTree::intersect`]).
+//! - Traversal (`kd_intersect` of tests/common/traversal.rs, the reference for the device code)
+//!   visits leaves front to back with a small stack and stops after the first leaf whose
+//!   interval holds the nearest hit found so far: no per-ray memory for tested triangles. A hit
+//!   beyond the current leaf is not taken as final, since a nearer one can still lie in a later
+//!   leaf; it is kept as the best so far, which is the same as clipping the leaf's hits to its
+//!   interval but also accepts a hit computed an ulp outside the leaf on a plane or box face
+//!   (see `kd_intersect`).
 //!
 //! Classification. All geometry is in f64 on exact copies of the f32 inputs. Every split
 //! coordinate is an f32 value (a bound of some triangle's clipped box, strictly inside the

@@ -1,4 +1,4 @@
-//! `kernels/types.h`, written from the Rust declarations ([`super::types`], [`super::buffers`]):
+//! `kernels/types.h`, written from the Rust declarations (`types.rs`, `buffers.rs`):
 //! the kernels' copy of every shared constant, struct and the scene buffer list. The file is in
 //! the tree for readers and for `--kernels DIR`; `tests/layout.rs` fails when it differs from
 //! [`text`] and rewrites it with `CLPT_WRITE_TYPES_H=1`.

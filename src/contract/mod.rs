@@ -1,5 +1,5 @@
-//! The host–kernel contract, declared once: every shared constant and struct ([`types`]) and
-//! the scene buffer list ([`buffers`]). `kernels/types.h` is written from them ([`header`]);
+//! The host–kernel contract, declared once: every shared constant and struct (`types.rs`) and
+//! the scene buffer list (`buffers.rs`). `kernels/types.h` is written from them ([`header`]);
 //! the device's layout probe (`device::layout`) checks every size, offset and constant on the
 //! device against them. A leaf module: it uses nothing else of the crate.
 

@@ -9,9 +9,11 @@
 //!   (`|p - n offset| <= range`), and any affine transform maps it to a parallelogram;
 //! - every triangle of a mesh instance, under any transform.
 //!
-//! Other emitters (emission maps, ellipsoids, tilted planes, surfaces of revolution) are found
-//! by BSDF sampling alone, at full weight: the device looks every emitting hit up in this list
-//! (nee.h `find_light`), so this module is the only rule.
+//! Each kind's entries are its own (`emitters` of [`super::shapes::HostShape`], in
+//! `src/pack/shapes/`); this module gathers them and picks among them, and holds the room they
+//! are clipped to. Other emitters (emission maps, ellipsoids, tilted planes, surfaces of
+//! revolution) are found by BSDF sampling alone, at full weight: the device looks every
+//! emitting hit up in this list (nee.h `find_light`), so the list is the only rule.
 //!
 //! A light is picked in proportion to its power, π·Le·area (twice for two-sided triangles), with
 //! Le the mean of the emission's channels: a scene's tiny lamp and its big glowing wall each get

@@ -2,7 +2,8 @@
 //! [`crate::contract`] ([`PackedScene`]): materials and their texture maps, spheres, planes,
 //! transforms, meshes (each OBJ file loaded and its kd-tree, or its 8-wide BVH on a CPU, built
 //! once, however many instances use it), the object table and the BVH over it, and the light
-//! list ([`lights`]). The layer between [`crate::scene`]/[`crate::accel`] and the device
+//! list ([`lights`]). Each kind of object packs itself ([`shapes`]: its device struct, its world
+//! box, its light-list entries); this module holds what the kinds share. The layer between [`crate::scene`]/[`crate::accel`] and the device
 //! runtime, which uploads what it packs (`device::upload`).
 //!
 //! Precision. f32 spaces its values by 2^-24 of their size, so a scene stored as written

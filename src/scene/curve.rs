@@ -3,7 +3,7 @@
 //!
 //! A [`Curve`] is a Bézier curve of degree 1 to 7 or a uniform cubic B-spline in the profile
 //! plane (x, y); revolving it about the y axis gives the surface
-//! S(s, θ) = (x(s) cos θ, y(s), x(s) sin θ) ([`revolve`]).
+//! S(s, θ) = (x(s) cos θ, y(s), x(s) sin θ) (`revolve`).
 //!
 //! - Bézier curves use the Bernstein basis: the point by de Casteljau's algorithm, the
 //!   derivative from the degree n − 1 hodograph (Farin, *Curves and Surfaces for CAGD*, 5th ed.,
