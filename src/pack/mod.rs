@@ -3,8 +3,9 @@
 //! transforms, meshes (each OBJ file loaded and its kd-tree, or its 8-wide BVH on a CPU, built
 //! once, however many instances use it), the object table and the BVH over it, and the light
 //! list ([`lights`]). Each kind of object packs itself ([`shapes`]: its device struct, its world
-//! box, its light-list entries); this module holds what the kinds share. The layer between [`crate::scene`]/[`crate::accel`] and the device
-//! runtime, which uploads what it packs (`device::upload`).
+//! box, its light-list entries); this module holds what the kinds share. The layer between
+//! [`crate::scene`]/[`crate::accel`] and the device runtime, which uploads what it packs
+//! (`device::upload`).
 //!
 //! Precision. f32 spaces its values by 2^-24 of their size, so a scene stored as written
 //! rounds a surface 1e6 from the scene's origin by 0.03, whatever the scene's own scale. Here
@@ -74,8 +75,8 @@ pub struct PackedScene {
     pub transforms: Vec<Transform>,
     pub meshes: Vec<MeshDesc>,
     pub mesh_instances: Vec<MeshInstance>,
-    /// Whether meshes carry 8-wide BVHs ([`crate::accel::wide_bvh::WideBvh`], on a CPU: kernels/wide_bvh.h)
-    /// in `wide_nodes`, instead of kd-trees in `kd_nodes`; either way their leaves' triangles
+    /// Whether meshes carry 8-wide BVHs ([`crate::accel::wide_bvh::WideBvh`], on a CPU:
+    /// kernels/wide_bvh.h) in `wide_nodes`, instead of kd-trees in `kd_nodes`; either way their leaves' triangles
     /// are in `kd_indices` (a kd-tree's as numbers, a wide BVH's as slots of
     /// `WIDE_BVH_SLOT` words), and the kernels' mesh-node buffer holds the one kind.
     pub wide_bvh: bool,
@@ -174,7 +175,7 @@ impl PackedScene {
                     packed.materials.len()
                 )));
             }
-            let before = packed.sizes();
+            let transforms_before = packed.transforms.len();
             let placed = object.transform.map(|m| to_device * m);
             let place = ObjectPlace {
                 material: object.material as u32,
@@ -194,7 +195,8 @@ impl PackedScene {
             let index = shape.pack(&mut packed, &place, &mut files)?;
             let world_box = shape.world_bounds(&packed, index, &place.at);
             packed.push_object(object.shape.kind(), index, world_box);
-            if !packed.finite_since(before) {
+            if !(shape.finite(&packed, index) && packed.transforms_finite_since(transforms_before))
+            {
                 return Err(Error::Invalid(format!(
                     "{}: the object lies too far from the camera at ({:?}, {:?}, {:?}): the \
                      device's coordinates, relative to the camera, overflow f32 (3.4e38) there",
@@ -206,41 +208,13 @@ impl PackedScene {
         Ok(packed)
     }
 
-    /// How many spheres, planes, transforms, vertices and profile points are packed.
-    fn sizes(&self) -> [usize; 5] {
-        [
-            self.spheres.len(),
-            self.planes.len(),
-            self.transforms.len(),
-            self.vertices.len(),
-            self.rev_points.len(),
-        ]
-    }
-
-    /// Whether every number packed since `sizes` was `before` is finite: the host's f64 values
-    /// are within f32's range (the parser checks), but their differences from the camera's
-    /// position need not be.
-    fn finite_since(&self, before: [usize; 5]) -> bool {
-        let [s, p, t, v, r] = before;
-        let finite = |x: &f32| x.is_finite();
-        self.spheres[s..].iter().all(|x| {
-            x.center
-                .iter()
-                .chain(&x.center_lo)
-                .chain([&x.radius, &x.radius_lo])
-                .all(finite)
-        }) && self.planes[p..].iter().all(|x| {
-            x.normal
-                .iter()
-                .chain(&x.center)
-                .chain(&x.centerp)
-                .chain([&x.offset, &x.range])
-                .all(finite)
-        }) && self.transforms[t..]
+    /// Whether the transforms packed from `before` on are finite: the host's f64 values are
+    /// within f32's range (the parser checks), but their differences from the camera's position
+    /// need not be ([`shapes::HostShape::finite`] checks each kind's own numbers).
+    fn transforms_finite_since(&self, before: usize) -> bool {
+        self.transforms[before..]
             .iter()
-            .all(|x| x.m.iter().chain(&x.inv).all(finite))
-            && self.vertices[v..].iter().flatten().all(finite)
-            && self.rev_points[r..].iter().flatten().all(finite)
+            .all(|x| x.m.iter().chain(&x.inv).all(|v| v.is_finite()))
     }
 
     fn push_transform(&mut self, m: Option<&DMat4>) -> u32 {

@@ -3,7 +3,7 @@
 //! instances use it, and one instance an object; an emitting mesh's triangles that some path
 //! can see are light-list entries.
 
-use super::{HostShape, MeshFiles, ObjectPlace, Placement, transform_box};
+use super::{HostShape, MeshFiles, ObjectPlace, Placement, all_finite, transform_box};
 use crate::accel::aabb::Aabb;
 use crate::accel::kdtree::{KdParams, KdTree};
 use crate::accel::wide_bvh::WideBvh;
@@ -62,6 +62,21 @@ impl HostShape for MeshShape {
             hi: dvec(desc.hi),
         };
         transform_box(&bounds, at.transform)
+    }
+
+    /// Its mesh's vertices, once: when this is the mesh's first instance (a mesh moved to the
+    /// device's origin is pushed once for each way it is placed).
+    fn finite(&self, packed: &PackedScene, index: usize) -> bool {
+        let mesh = packed.mesh_instances[index].mesh as usize;
+        if packed.mesh_info[mesh].instances != 1 {
+            return true;
+        }
+        let first = packed.meshes[mesh].first_vertex as usize;
+        let end = packed
+            .meshes
+            .get(mesh + 1)
+            .map_or(packed.vertices.len(), |next| next.first_vertex as usize);
+        all_finite(packed.vertices[first..end].iter().flatten())
     }
 
     /// Every triangle of the emitting meshes that some path can see, with its power (both sides).

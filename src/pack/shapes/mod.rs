@@ -1,6 +1,7 @@
 //! Each kind of object on the host, one module a kind: how an object of the scene becomes the
 //! device's data ([`HostShape::pack`]), its box in device space for the object BVH
-//! ([`HostShape::world_bounds`]) and, for a kind light sampling picks, its light-list entries
+//! ([`HostShape::world_bounds`]), whether its numbers survived the move to the camera
+//! ([`HostShape::finite`]) and, for a kind light sampling picks, its light-list entries
 //! ([`HostShape::emitters`]). The kinds are the contract's `OBJECT_KINDS`; their device side is
 //! kernels/shapes.h and each kind's header. docs/adding-a-shape.md says what a new kind adds.
 
@@ -59,6 +60,11 @@ pub trait HostShape {
     /// on (`crate::accel::bvh`).
     fn world_bounds(&self, packed: &PackedScene, index: usize, at: &Placement) -> Aabb;
 
+    /// Whether the numbers packed for object `index` are finite: an object far from the camera
+    /// can overflow f32 once moved to the camera-relative origin (the scene's numbers are
+    /// checked by the parser). Its transform is checked with the others.
+    fn finite(&self, packed: &PackedScene, index: usize) -> bool;
+
     /// The light-list entries of this kind's packed emitters, each with its power: what light
     /// sampling picks (kernels/nee.h has the kind's sample, density and hit test). None by
     /// default: BSDF sampling finds such emitters at full weight.
@@ -100,6 +106,11 @@ pub fn transform_box(b: &Aabb, m: Option<&DMat4>) -> Aabb {
         );
         m.transform_point3(corner)
     }))
+}
+
+/// Whether every number is finite.
+fn all_finite<'a>(numbers: impl IntoIterator<Item = &'a f32>) -> bool {
+    numbers.into_iter().all(|x| x.is_finite())
 }
 
 /// The box of half-size `half` about `centre`, under `m`.

@@ -2,7 +2,7 @@
 //! (the packing module's doc); an emitting axis-aligned plane is one light-list entry, the
 //! square its range keeps, clipped to the closed room around the camera.
 
-use super::{HostShape, MeshFiles, ObjectPlace, Placement, cube_box};
+use super::{HostShape, MeshFiles, ObjectPlace, Placement, all_finite, cube_box};
 use crate::accel::aabb::Aabb;
 use crate::contract::{self, Light, Plane};
 use crate::error::Result;
@@ -46,6 +46,17 @@ impl HostShape for PlaneShape {
     fn world_bounds(&self, packed: &PackedScene, index: usize, at: &Placement) -> Aabb {
         let p = &packed.planes[index];
         cube_box(dvec(p.center), f64::from(p.range), at.transform)
+    }
+
+    fn finite(&self, packed: &PackedScene, index: usize) -> bool {
+        let p = &packed.planes[index];
+        all_finite(
+            p.normal
+                .iter()
+                .chain(&p.center)
+                .chain(&p.centerp)
+                .chain([&p.offset, &p.range]),
+        )
     }
 
     /// The emitting axis-aligned planes, each as the square its range keeps (clipped to the

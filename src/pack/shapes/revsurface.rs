@@ -3,7 +3,7 @@
 //! relative to the profile's own size (the packing module's doc). Light sampling does not pick
 //! them: BSDF sampling finds an emitting one.
 
-use super::{HostShape, MeshFiles, ObjectPlace, Placement, transform_box};
+use super::{HostShape, MeshFiles, ObjectPlace, Placement, all_finite, transform_box};
 use crate::accel::aabb::Aabb;
 use crate::contract::RevSurface;
 use crate::error::Result;
@@ -54,5 +54,13 @@ impl HostShape for RevSurfaceShape {
     fn world_bounds(&self, _: &PackedScene, _: usize, at: &Placement) -> Aabb {
         let world = at.transform.copied().unwrap_or(*at.to_device);
         transform_box(&self.curve.revolution_bounds(), Some(&world))
+    }
+
+    /// Its profile's points as stored.
+    fn finite(&self, packed: &PackedScene, index: usize) -> bool {
+        let r = &packed.revsurfaces[index];
+        let first = r.first_point as usize;
+        let count = r.num_segments as usize * (r.degree as usize + 1);
+        all_finite(packed.rev_points[first..first + count].iter().flatten())
     }
 }

@@ -2,7 +2,7 @@
 //! device's origin (the packing module's doc); an emitting sphere of uniform scale is one
 //! light-list entry, sampled over the cap some path can see.
 
-use super::{HostShape, MeshFiles, ObjectPlace, Placement, cube_box};
+use super::{HostShape, MeshFiles, ObjectPlace, Placement, all_finite, cube_box};
 use crate::accel::aabb::Aabb;
 use crate::contract::{self, Light, Sphere};
 use crate::error::Result;
@@ -37,6 +37,16 @@ impl HostShape for SphereShape {
     fn world_bounds(&self, packed: &PackedScene, index: usize, at: &Placement) -> Aabb {
         let s = &packed.spheres[index];
         cube_box(s.center_f64(), s.radius_f64(), at.transform)
+    }
+
+    fn finite(&self, packed: &PackedScene, index: usize) -> bool {
+        let s = &packed.spheres[index];
+        all_finite(
+            s.center
+                .iter()
+                .chain(&s.center_lo)
+                .chain([&s.radius, &s.radius_lo]),
+        )
     }
 
     /// The emitting spheres of uniform scale (an ellipsoid is left to BSDF sampling), each
