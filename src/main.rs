@@ -191,13 +191,13 @@ struct SamplingArgs {
     #[arg(long, default_value = "bilinear")]
     texture_filter: TextureFilter,
     /// Largest texture image accepted, in pixels.
-    #[arg(long, default_value_t = clpt::scene::texture::DEFAULT_MAX_PIXELS)]
+    #[arg(long, default_value_t = clpt::elements::texture::DEFAULT_MAX_PIXELS)]
     max_texture_pixels: u64,
     /// Largest scene file read, in bytes.
     #[arg(long, value_name = "BYTES", default_value_t = clpt::scene::DEFAULT_MAX_SCENE_BYTES)]
     max_scene_bytes: u64,
     /// Largest OBJ mesh file read, in bytes.
-    #[arg(long, default_value_t = clpt::scene::mesh::DEFAULT_MAX_FILE_BYTES)]
+    #[arg(long, default_value_t = clpt::elements::mesh::DEFAULT_MAX_FILE_BYTES)]
     max_mesh_bytes: u64,
     /// Object BVH: auto (from 32 objects on), on, or off (test every object in turn).
     #[arg(long, default_value = "auto")]

@@ -5,7 +5,8 @@ mod common;
 
 use clpt::error::ParseError;
 use clpt::scene::parse::parse_scene;
-use clpt::scene::{MaterialKind, PlaneShape, Scene, Shape, SphereShape};
+use clpt::scene::{MaterialKind, Scene};
+use clpt::shapes::{PlaneShape, Shape, SphereShape};
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 
@@ -610,8 +611,8 @@ fn malformed_scenes_fail_where_the_mistake_is() {
             with_group("numObjects 1 Cube { }"),
             3,
             22,
-            "expected `MaterialIndex`, `Sphere`, `Plane`, `Mesh`, `TriangleMesh`, `Transform`, \
-             `RevSurface` or `}` in `Group`, found `Cube`",
+            "expected `MaterialIndex`, `Sphere`, `Plane`, `Mesh`, `TriangleMesh`, `RevSurface`, \
+             `Transform` or `}` in `Group`, found `Cube`",
         ),
         (
             "object without its brace",

@@ -773,5 +773,24 @@ fn a_mapped_plane_needs_its_axes() {
     let err = PackedScene::new(&scene, u64::MAX).unwrap_err().to_string();
     assert!(err.contains("s.txt:3:22") && err.contains("dirU"), "{err}");
     let _ = parse_scene(text, "s.txt").unwrap();
+    // A kind without texture coordinates refuses the maps; a sphere takes them.
+    let revolved = text.replace(
+        "Plane { normal 0 0 1 offset 0 range 10 }",
+        "RevSurface { profile BezierCurve { controls [ 1 0 0 ] [ 2 1 0 ] [ 1 2 0 ] [ 2 3 0 ] } }",
+    );
+    std::fs::write(dir.join("r.txt"), &revolved).unwrap();
+    let scene = Scene::load(&dir.join("r.txt")).unwrap();
+    let err = PackedScene::new(&scene, u64::MAX).unwrap_err().to_string();
+    assert!(
+        err.contains("r.txt:3:22") && err.contains("no texture coordinates"),
+        "{err}"
+    );
+    let sphere = text.replace(
+        "Plane { normal 0 0 1 offset 0 range 10 }",
+        "Sphere { center 0 0 0 radius 1 }",
+    );
+    std::fs::write(dir.join("b.txt"), &sphere).unwrap();
+    let scene = Scene::load(&dir.join("b.txt")).unwrap();
+    PackedScene::new(&scene, u64::MAX).unwrap();
     std::fs::remove_dir_all(dir).ok();
 }

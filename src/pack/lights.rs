@@ -9,8 +9,8 @@
 //!   (`|p - n offset| <= range`), and any affine transform maps it to a parallelogram;
 //! - every triangle of a mesh instance, under any transform.
 //!
-//! Each kind's entries are its own (`emitters` of [`super::shapes::HostShape`], in
-//! `src/pack/shapes/`); this module gathers them and picks among them, and holds the room they
+//! Each kind's entries are its own (`emitters` of `crate::shapes::HostShape`, in
+//! `src/shapes/`); this module gathers them and picks among them, and holds the room they
 //! are clipped to. Other emitters (emission maps, ellipsoids, tilted planes, surfaces of
 //! revolution) are found by BSDF sampling alone, at full weight: the device looks every
 //! emitting hit up in this list (nee.h `find_light`), so the list is the only rule.
@@ -110,7 +110,7 @@
 //! better (a cap's back side, seen from a point, is hidden by its front).
 
 use crate::contract::{self, Light, Material, MeshDesc, TextureMap, Transform};
-use crate::scene::camera::CameraBasis;
+use crate::elements::camera::CameraBasis;
 use glam::{DMat3, DVec3};
 
 /// What the light list reads of a packed scene.
@@ -130,11 +130,15 @@ pub struct LightSources<'a> {
     pub vertices: &'a [[f32; 3]],
 }
 
+/// What gathers every kind's light-list entries, each with its power (`crate::shapes::emitters`,
+/// above this layer).
+pub type Emitters = fn(&LightSources, Option<&Room>, &mut Vec<(Light, f64)>);
+
 /// The light list, sorted by (kind, index, triangle), its `prob` and `cdf` filled in; its
 /// plane emitters clipped to `room` and its emitters wholly outside it dropped (module doc).
-pub fn collect_lights(scene: &LightSources, room: Option<&Room>) -> Vec<Light> {
+pub fn collect_lights(scene: &LightSources, room: Option<&Room>, kinds: Emitters) -> Vec<Light> {
     let mut emitters = Vec::new();
-    super::shapes::emitters(scene, room, &mut emitters);
+    kinds(scene, room, &mut emitters);
     emitters.retain(|(_, power)| *power > 0.0 && power.is_finite());
     pick_by_power(emitters)
 }
@@ -198,8 +202,8 @@ pub fn report(lights: &[Light], room: Option<&Room>, origin: DVec3) -> String {
 pub const ROOM_TOLERANCE: f64 = 1e-5;
 
 /// The unit square and triangle in edge parameters (a, b) of `corner + edge1 a + edge2 b`.
-pub(super) const SQUARE: [[f64; 2]; 4] = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
-pub(super) const TRIANGLE: [[f64; 2]; 3] = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+pub(crate) const SQUARE: [[f64; 2]; 4] = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+pub(crate) const TRIANGLE: [[f64; 2]; 3] = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
 
 /// A closed room around the camera (module doc): no path leaves the box `lo..hi`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -483,25 +487,25 @@ fn reflects_only(scene: &LightSources, m: &Material) -> bool {
 }
 
 /// The mean channel of a material's emission, if it emits a constant (unmapped) radiance.
-pub(super) fn constant_emission(materials: &[Material], material: u32) -> Option<f64> {
+pub(crate) fn constant_emission(materials: &[Material], material: u32) -> Option<f64> {
     let m = materials.get(material as usize)?;
     let le = m.emission.iter().map(|&e| f64::from(e)).sum::<f64>() / 3.0;
     (m.emission.iter().any(|&e| e > 0.0) && m.emission_map == contract::MAP_NONE).then_some(le)
 }
 
-pub(super) fn dvec(v: [f32; 3]) -> DVec3 {
+pub(crate) fn dvec(v: [f32; 3]) -> DVec3 {
     DVec3::from(v.map(f64::from))
 }
 
 /// An object's transform as the device applies it (its f32 rows, computed in f64).
-pub(super) struct Affine {
+pub(crate) struct Affine {
     linear: DMat3,
     translation: DVec3,
     inverse: DMat3,
 }
 
 impl Affine {
-    pub(super) fn of(transforms: &[Transform], index: u32) -> Affine {
+    pub(crate) fn of(transforms: &[Transform], index: u32) -> Affine {
         let Some(t) = transforms.get(index as usize) else {
             return Affine {
                 linear: DMat3::IDENTITY,
@@ -521,21 +525,21 @@ impl Affine {
         }
     }
 
-    pub(super) fn point(&self, p: DVec3) -> DVec3 {
+    pub(crate) fn point(&self, p: DVec3) -> DVec3 {
         self.linear * p + self.translation
     }
 
-    pub(super) fn vector(&self, v: DVec3) -> DVec3 {
+    pub(crate) fn vector(&self, v: DVec3) -> DVec3 {
         self.linear * v
     }
 
     /// A normal's world direction (the inverse transpose), not normalised.
-    pub(super) fn normal(&self, n: DVec3) -> DVec3 {
+    pub(crate) fn normal(&self, n: DVec3) -> DVec3 {
         self.inverse.transpose() * n
     }
 
     /// The scale of a similarity (orthogonal columns of one length, to f32 rounding), or None.
-    pub(super) fn uniform_scale(&self) -> Option<f64> {
+    pub(crate) fn uniform_scale(&self) -> Option<f64> {
         let cols = [self.linear.x_axis, self.linear.y_axis, self.linear.z_axis];
         let s2 = cols[0].length_squared();
         let tol = 1e-5 * s2;

@@ -1,11 +1,10 @@
-//! Host scene → device data, without a device: packs the f64 scene into the f32 structs of
-//! [`crate::contract`] ([`PackedScene`]): materials and their texture maps, spheres, planes,
-//! transforms, meshes (each OBJ file loaded and its kd-tree, or its 8-wide BVH on a CPU, built
-//! once, however many instances use it), the object table and the BVH over it, and the light
-//! list ([`lights`]). Each kind of object packs itself ([`shapes`]: its device struct, its world
-//! box, its light-list entries); this module holds what the kinds share. The layer between
-//! [`crate::scene`]/[`crate::accel`] and the device runtime, which uploads what it packs
-//! (`device::upload`).
+//! The scene as the device reads it, without a device: the f32 structs of [`crate::contract`]
+//! in [`PackedScene`]'s arrays (materials and their texture maps, each kind's objects,
+//! transforms, meshes with their kd-trees or 8-wide BVHs, the object table and the BVH over it)
+//! and the light list ([`lights`]). Each kind of object packs itself into these arrays
+//! (`crate::shapes`, the layer above), and the whole scene is packed by `PackedScene::new`
+//! (`crate::scene::packing`, above that); this module holds what the kinds share. Below the
+//! device runtime, which uploads what it packs (`device::upload`).
 //!
 //! Precision. f32 spaces its values by 2^-24 of their size, so a scene stored as written
 //! rounds a surface 1e6 from the scene's origin by 0.03, whatever the scene's own scale. Here
@@ -24,7 +23,6 @@
 
 pub mod convert;
 pub mod lights;
-pub mod shapes;
 
 use crate::accel::aabb::Aabb;
 use crate::accel::bvh::Bvh;
@@ -32,15 +30,10 @@ use crate::contract::{
     self, BvhNode, KdNode, Light, Material, MeshDesc, MeshInstance, ObjectRef, Plane, RenderParams,
     RevSurface, Sphere, Transform, WideBvhNode,
 };
-use crate::error::{Error, Result};
-use crate::scene::camera::CameraBasis;
-use crate::scene::mesh;
-use crate::scene::texture::TexturePack;
-use crate::scene::{MaterialKind, Scene};
-use convert::{f32x3, rows3x4};
+use crate::elements::camera::CameraBasis;
+use crate::elements::texture::TexturePack;
+use convert::rows3x4;
 use glam::{DMat4, DVec3};
-use shapes::{MeshFiles, ObjectPlace, Placement};
-use std::collections::HashMap;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -102,122 +95,19 @@ pub struct PackedScene {
     pub object_boxes: Vec<Aabb>,
 }
 
-/// The scene's materials, each with its texture maps' indices.
-fn pack_materials(scene: &Scene, textures: &TexturePack) -> Vec<Material> {
-    scene
-        .materials
-        .iter()
-        .zip(&textures.material_maps)
-        .map(
-            |(m, &[color_map, emission_map, type_map, bump_map])| Material {
-                emission: f32x3(m.emission),
-                color: f32x3(m.color),
-                kind: match m.kind {
-                    MaterialKind::Diffuse => contract::MATERIAL_DIFFUSE,
-                    MaterialKind::Specular => contract::MATERIAL_SPECULAR,
-                    MaterialKind::Refractive => contract::MATERIAL_REFRACTIVE,
-                },
-                color_map,
-                emission_map,
-                type_map,
-                bump_map,
-            },
-        )
-        .collect()
-}
-
 impl PackedScene {
-    /// Packs `scene` with OBJ files of at most [`mesh::DEFAULT_MAX_FILE_BYTES`], meshes in
-    /// kd-trees ([`PackedScene::with_limits`]).
-    pub fn new(scene: &Scene, max_texture_pixels: u64) -> Result<PackedScene> {
-        PackedScene::with_limits(
-            scene,
-            max_texture_pixels,
-            mesh::DEFAULT_MAX_FILE_BYTES,
-            false,
-        )
-    }
-
-    /// Packs `scene`, loading its texture maps (each image at most `max_texture_pixels`) and
-    /// meshes (each OBJ file at most `max_mesh_bytes`), and building the BVH and each mesh's
-    /// kd-tree, or its 8-wide BVH with `wide_bvh` (on a CPU).
-    pub fn with_limits(
-        scene: &Scene,
-        max_texture_pixels: u64,
-        max_mesh_bytes: u64,
-        wide_bvh: bool,
-    ) -> Result<PackedScene> {
-        let textures = TexturePack::load(scene, max_texture_pixels)?;
-        let mut camera = CameraBasis::new(&scene.camera)?;
-        let origin = camera.origin;
-        camera.origin = DVec3::ZERO;
-        let mut packed = PackedScene {
-            origin,
-            camera,
-            wide_bvh,
-            ..PackedScene::default()
-        };
-        // Object-to-device transforms: the scene's, then the move to the camera-relative origin.
-        let to_device = DMat4::from_translation(-origin);
-        packed.materials = pack_materials(scene, &textures);
-        packed.textures = textures;
-        let mut files = MeshFiles {
-            base_dir: scene.base_dir.as_deref(),
-            max_bytes: max_mesh_bytes,
-            loaded: HashMap::new(),
-        };
-        for object in &scene.objects {
-            if object.material >= packed.materials.len() {
-                return Err(Error::Invalid(format!(
-                    "{}: material index {} but the scene has {} materials",
-                    object.location,
-                    object.material,
-                    packed.materials.len()
-                )));
-            }
-            let transforms_before = packed.transforms.len();
-            let placed = object.transform.map(|m| to_device * m);
-            let place = ObjectPlace {
-                material: object.material as u32,
-                at: Placement {
-                    transform: placed.as_ref(),
-                    to_device: &to_device,
-                    // Where an untransformed object's coordinates go on the device.
-                    shift: if placed.is_some() {
-                        DVec3::ZERO
-                    } else {
-                        -origin
-                    },
-                },
-                location: &object.location,
-            };
-            let shape = shapes::host(&object.shape);
-            let index = shape.pack(&mut packed, &place, &mut files)?;
-            let world_box = shape.world_bounds(&packed, index, &place.at);
-            packed.push_object(object.shape.kind(), index, world_box);
-            if !(shape.finite(&packed, index) && packed.transforms_finite_since(transforms_before))
-            {
-                return Err(Error::Invalid(format!(
-                    "{}: the object lies too far from the camera at ({:?}, {:?}, {:?}): the \
-                     device's coordinates, relative to the camera, overflow f32 (3.4e38) there",
-                    object.location, origin.x, origin.y, origin.z
-                )));
-            }
-        }
-        packed.finish();
-        Ok(packed)
-    }
-
     /// Whether the transforms packed from `before` on are finite: the host's f64 values are
     /// within f32's range (the parser checks), but their differences from the camera's position
-    /// need not be ([`shapes::HostShape::finite`] checks each kind's own numbers).
-    fn transforms_finite_since(&self, before: usize) -> bool {
+    /// need not be (`crate::shapes::HostShape::finite` checks each kind's own numbers).
+    pub fn transforms_finite_since(&self, before: usize) -> bool {
         self.transforms[before..]
             .iter()
             .all(|x| x.m.iter().chain(&x.inv).all(|v| v.is_finite()))
     }
 
-    fn push_transform(&mut self, m: Option<&DMat4>) -> u32 {
+    /// Pushes `m` and its inverse as a device transform, returning its index, or
+    /// `TRANSFORM_NONE` for none.
+    pub fn push_transform(&mut self, m: Option<&DMat4>) -> u32 {
         match m {
             None => contract::TRANSFORM_NONE,
             Some(m) => {
@@ -240,11 +130,12 @@ impl PackedScene {
         self.object_boxes.push(world_box);
     }
 
-    /// Builds the object BVH over the object table and the light list: the last step of
-    /// packing, after every object's [`PackedScene::push_object`].
-    pub fn finish(&mut self) {
+    /// Builds the object BVH over the object table and the light list from every kind's
+    /// `emitters` (`crate::shapes::emitters`): the last step of packing, after every object's
+    /// [`PackedScene::push_object`].
+    pub fn finish(&mut self, emitters: lights::Emitters) {
         self.build_bvh();
-        self.collect_lights();
+        self.collect_lights(emitters);
     }
 
     fn build_bvh(&mut self) {
@@ -336,7 +227,7 @@ impl PackedScene {
 
     /// The light list of next-event estimation ([`lights::collect_lights`]), clipped to the
     /// closed room around the camera if there is one.
-    fn collect_lights(&mut self) {
+    fn collect_lights(&mut self, emitters: lights::Emitters) {
         let sources = lights::LightSources {
             camera: &self.camera,
             materials: &self.materials,
@@ -351,7 +242,7 @@ impl PackedScene {
             vertices: &self.vertices,
         };
         let room = lights::closed_room(&sources);
-        let list = lights::collect_lights(&sources, room.as_ref());
+        let list = lights::collect_lights(&sources, room.as_ref(), emitters);
         (self.room, self.lights) = (room, list);
     }
 }

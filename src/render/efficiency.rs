@@ -5,7 +5,7 @@
 //! `--report` wrote (report.rs).
 //!
 //! The measured relMSE of a render against a reference carries the reference's own variance:
-//! E[relMSE] ≈ relMSE of the render + relMSE of the reference. Given the reference's own
+//! E\[relMSE\] ≈ relMSE of the render + relMSE of the reference. Given the reference's own
 //! estimated relMSE (the last `relmse_estimate` of its report), that part is subtracted, so a
 //! reference need not be a hundred times longer than the runs it judges.
 

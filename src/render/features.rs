@@ -12,7 +12,8 @@
 
 use super::ObjectBvh;
 use crate::contract::{OBJECT_KINDS, OBJECT_MESH, OBJECT_NONE, OBJECT_REVSURFACE, OBJECT_SLOTS};
-use crate::scene::{RevSurfaceShape, Scene, Shape};
+use crate::scene::Scene;
+use crate::shapes::{RevSurfaceShape, Shape};
 use std::fmt;
 
 /// A scene's feature set. Only materials that some object uses count.

@@ -227,8 +227,8 @@ impl Default for RenderOptions {
             roulette: Roulette::Threshold(1.0),
             launch_target: None,
             texture_filter: TextureFilter::Bilinear,
-            max_texture_pixels: crate::scene::texture::DEFAULT_MAX_PIXELS,
-            max_mesh_bytes: crate::scene::mesh::DEFAULT_MAX_FILE_BYTES,
+            max_texture_pixels: crate::elements::texture::DEFAULT_MAX_PIXELS,
+            max_mesh_bytes: crate::elements::mesh::DEFAULT_MAX_FILE_BYTES,
             object_bvh: ObjectBvh::Auto,
             all_features: false,
             lanes: None,
@@ -297,7 +297,7 @@ pub fn pass_within(count: u32, left: f64, rate: f64, pixels: f64) -> u32 {
 }
 
 /// Whether the estimated relMSE of the last pass can be trusted to stop on: relMSE × spp, flat
-/// for an unbiased renderer, has grown by at most [`SETTLED_GROWTH`] since the last pass with at
+/// for an unbiased renderer, has grown by at most `SETTLED_GROWTH` since the last pass with at
 /// most half its samples. While a scene's rare paths (a small light found by BSDF sampling,
 /// caustics) have not yet shown up in both halves, the estimate reads low, the more so the
 /// fewer the samples, and the product climbs: stopping then would stop far too early (pure path

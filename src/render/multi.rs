@@ -2,7 +2,7 @@
 //! groups of eight, which the devices take from one shared queue as each finishes the last.
 //! Each device traces its chunks into its own film, in increasing sample order; at the end
 //! each film is read back once and added on the host
-//! ([`Accumulator`](super::merge::Accumulator)). Reading a chunk's film back each time cost an
+//! ([`super::merge::Accumulator`]). Reading a chunk's film back each time cost an
 //! H200 12% of case0's time at 2560x1440 (BENCHMARKS.md).
 //!
 //! Devices differ in speed by two orders of magnitude (an H200 against PoCL on its host's

@@ -15,13 +15,13 @@
 //! squared, plus ε, as relMSE has) is the relative variance of one sample; times the measured
 //! seconds per sample it is relMSE × seconds, the figure `clpt plot` compares, whose lower
 //! value reaches any error sooner.
-//! - A short render's trial is one round ([`trial_plan`]: [`TRIAL_SHARE`] of its samples,
+//! - A short render's trial is one round ([`trial_plan`]: `TRIAL_SHARE` of its samples,
 //!   on rows thinned out as far as that needs).
 //! - A longer one scouts first ([`scout_plan`]: [`TRIAL_SPP`] samples on every fourth row's
-//!   worth, on a GPU on about [`GPU_SCOUT_PIXELS`] in one launch ([`scouting`]), within
-//!   [`SCOUT_SHARE`] of its samples) and drops the candidates that are clearly worse
+//!   worth, on a GPU on about `GPU_SCOUT_PIXELS` in one launch ([`scouting`]), within
+//!   `SCOUT_SHARE` of its samples) and drops the candidates that are clearly worse
 //!   ([`Choice::survivors`]); only the rest render the full round ([`full_round_plan`]), sized
-//!   to [`FULL_ROUND_SHARE`] of the render's time at the best one's speed, and on a GPU timed
+//!   to `FULL_ROUND_SHARE` of the render's time at the best one's speed, and on a GPU timed
 //!   by the scouts where it is narrower ([`times_by_scouts`]). Light sampling can double a
 //!   path's price, and a trial of fixed samples per candidate then cost 6-12% of a render on
 //!   the H200; this one 1-2% of the showcases'.
@@ -29,18 +29,18 @@
 //!   candidates: it scouts at the device's floor of paths ([`time_limited_scout_plan`]) and
 //!   sizes the full round by the samples its time left affords at the best one's speed ([`samples_within`]).
 //! - Each round spends its budget on more samples rather than on more than about
-//!   [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]): more pixels add little precision. A GPU's
+//!   `TRIAL_PIXELS` pixels ([`plan_on_rows`]): more pixels add little precision. A GPU's
 //!   scouts are the exception: a GPU keeps a work-item a pixel, and a lean program idles in a
 //!   narrow launch, its seconds a path read high.
 //! - The statistics ([`choose`] over [`TrialSums`]) are computed on the device
 //!   (render/trial.rs): a read-back of the trial's rows and a host pass over them had cost a
 //!   fast scene more than its candidates' renders.
-//! - A full round takes at least [`LEAST_FULL_ROUND_SPP`] samples a pixel: quasi-random
+//! - A full round takes at least `LEAST_FULL_ROUND_SPP` samples a pixel: quasi-random
 //!   samples lower the relative variance by different shares for different settings, and a
 //!   few samples read settings tied that the render has 12% apart. A CPU's first round takes
 //!   those samples on a lattice of rows and columns ([`with_least_samples`]), its short
 //!   renders affording no second round. The figures are the round's own, not extrapolated to
-//!   the render's samples (why: [`LEAST_FULL_ROUND_SPP`]).
+//!   the render's samples (why: `LEAST_FULL_ROUND_SPP`).
 //!
 //! The render then goes on with the winner from sample 0, or, when the winner rendered the
 //! full round last and on every row, from the samples that round left in the film: either way
@@ -59,7 +59,7 @@ use std::fmt;
 /// away, and blur the contrast between candidates (on smallpt it read pure path tracing's
 /// variance 1.3 times light sampling's where the render measures 1.9). Quasi-random samples
 /// gain more with more samples, and by different shares for different settings, so a round
-/// that affords it measures at more ([`LEAST_FULL_ROUND_SPP`]).
+/// that affords it measures at more (`LEAST_FULL_ROUND_SPP`).
 pub const TRIAL_SPP: u32 = 8;
 
 /// The most samples per pixel a trial takes, however long the render.
@@ -137,8 +137,8 @@ const LEAST_FULL_ROUND_SPP: u32 = 4 * TRIAL_SPP;
 const GPU_FULL_ROUND_PIXELS: u64 = 1 << 16;
 
 /// The pixels a full round on a device of `kind` keeps at the least when it raises its samples
-/// to [`LEAST_FULL_ROUND_SPP`] ([`with_least_samples_on`]): none on a CPU, where fewer pixels
-/// at the same cost cost nothing; [`GPU_FULL_ROUND_PIXELS`] on a GPU. A GPU's seconds a path
+/// to `LEAST_FULL_ROUND_SPP` ([`with_least_samples_on`]): none on a CPU, where fewer pixels
+/// at the same cost cost nothing; `GPU_FULL_ROUND_PIXELS` on a GPU. A GPU's seconds a path
 /// depend on how full its launches keep it, and a launch of a few thousand work-items takes
 /// as long as its slowest lanes: H200, ceiling_room at 320x240 (4096 samples), 10 seeds, a
 /// full round of 32 samples on 19,200 pixels read roulette below 0.3 at 1.16 times 0.5's
@@ -161,7 +161,7 @@ const LEAST_TRIAL_SPP_CPU: u32 = LEAST_FULL_ROUND_SPP;
 
 /// The least samples a pixel of a trial round on a device of `kind` (an OpenCL device type as
 /// `clpt devices` lists it: "CPU", "GPU", ...): on a GPU [`TRIAL_SPP`], which keeps a round's
-/// pixels enough to fill it; on a CPU [`LEAST_TRIAL_SPP_CPU`].
+/// pixels enough to fill it; on a CPU `LEAST_TRIAL_SPP_CPU`.
 pub fn least_trial_samples(kind: &str) -> u32 {
     if kind == "CPU" {
         LEAST_TRIAL_SPP_CPU
@@ -171,11 +171,11 @@ pub fn least_trial_samples(kind: &str) -> u32 {
 }
 
 /// `plan` with at least `least` samples a pixel (a multiple of [`TRIAL_SPP`], at most
-/// [`MAX_TRIAL_SPP`]) at about the same cost on an image of `width` x `height`: its pixels
+/// `MAX_TRIAL_SPP`) at about the same cost on an image of `width` x `height`: its pixels
 /// thinned out by the same factor f, in columns as far as the image is wide and in rows by the
 /// rest, so that every row of the plan stays (a CPU's scouts at 32 samples on every 52nd row
 /// of 160x120 kept 2 rows, which read light sampling's variance a quarter above the image's);
-/// more than a work-group's rows in whole groups ([`rows_in_whole_groups`]); never fewer than
+/// more than a work-group's rows in whole groups (`rows_in_whole_groups`); never fewer than
 /// one row or column.
 pub fn with_least_samples(plan: TrialPlan, least: u32, size: (u32, u32)) -> TrialPlan {
     with_least_samples_on(plan, least, size, 0)
@@ -365,8 +365,8 @@ pub fn sample_parts(samples: u32, parts: u32) -> Vec<(u32, u32)> {
 }
 
 /// How a device of `kind` (an OpenCL device type as `clpt devices` lists it: "CPU", "GPU",
-/// ...) scouts: the least paths a candidate traces ([`MIN_SCOUT_PATHS_CPU`],
-/// [`MIN_SCOUT_PATHS`]) and, on a GPU, the pixels its scouts fill ([`GPU_SCOUT_PIXELS`]).
+/// ...) scouts: the least paths a candidate traces (`MIN_SCOUT_PATHS_CPU`,
+/// `MIN_SCOUT_PATHS`) and, on a GPU, the pixels its scouts fill (`GPU_SCOUT_PIXELS`).
 pub fn scouting(kind: &str) -> Scouting {
     if kind == "CPU" {
         Scouting {
@@ -385,14 +385,14 @@ pub fn scouting(kind: &str) -> Scouting {
 /// plan `scouts`, on an image of `size`) by the scouts' seconds a path rather than by its own
 /// launches: on a GPU, where the full round takes fewer pixels ([`full_round_least_pixels`]:
 /// 2^16 at the least, for its samples a pixel), and a lean program then idles in
-/// its launches ([`GPU_SCOUT_PIXELS`]). The variances stay the full round's.
+/// its launches (`GPU_SCOUT_PIXELS`). The variances stay the full round's.
 pub fn times_by_scouts(kind: &str, scouts: TrialPlan, full: TrialPlan, size: (u32, u32)) -> bool {
     kind != "CPU" && full.pixels(size) < scouts.pixels(size)
 }
 
 /// The rows of a trial round's first launch on a device of `kind`, of `rows` in all: on a GPU
 /// all of them (the round's pixels at once: a narrower launch leaves a lean program's
-/// work-items too few, [`GPU_SCOUT_PIXELS`]); on a CPU two work-groups' rows, the rest sized
+/// work-items too few, `GPU_SCOUT_PIXELS`); on a CPU two work-groups' rows, the rest sized
 /// by their rate.
 pub fn first_trial_launch(kind: &str, rows: u32) -> u32 {
     if kind == "CPU" {
@@ -409,7 +409,7 @@ pub struct Scouting {
     pub min_paths: f64,
     /// Where set (a GPU), the widest scouting round takes [`TRIAL_SPP`] samples on about this
     /// many pixels (every row of a smaller image), as far as its share of the render affords;
-    /// else (a CPU) on every fourth row, on about [`TRIAL_PIXELS`] at most.
+    /// else (a CPU) on every fourth row, on about `TRIAL_PIXELS` at most.
     pub fill: Option<u64>,
 }
 
@@ -554,7 +554,7 @@ impl TrialPlan {
     }
 }
 
-/// The trial's size: each candidate gets [`TRIAL_SHARE`] of a render of `spp` samples divided
+/// The trial's size: each candidate gets `TRIAL_SHARE` of a render of `spp` samples divided
 /// among the `candidates`, in full-image samples per pixel ([`plan_for_budget`]). Without a
 /// sample count (a time limit or a target error) the trial is the shortest: TRIAL_SPP samples
 /// on every fourth row.
@@ -568,7 +568,7 @@ pub fn trial_plan(candidates: usize, spp: Option<u32>, height: u32) -> TrialPlan
 /// The plan of a candidate's share of the trial, `budget` full-image samples per pixel. Below
 /// [`TRIAL_SPP`] samples on every fourth row's worth, the rows thin out (never fewer than one);
 /// above it, every row takes part first, then the samples grow by whole [`TRIAL_SPP`]s up to
-/// [`MAX_TRIAL_SPP`]: a long render affords a trial precise enough to tell estimators apart by
+/// `MAX_TRIAL_SPP`: a long render affords a trial precise enough to tell estimators apart by
 /// 10%. A budget of 0 gives the shortest trial.
 pub fn plan_for_budget(budget: f64, height: u32) -> TrialPlan {
     let least = f64::from(TRIAL_SPP) / f64::from(MIN_ROW_STEP);
@@ -593,11 +593,11 @@ pub fn plan_for_budget(budget: f64, height: u32) -> TrialPlan {
 }
 
 /// The plan of the full round after scouting, or `None` when it would take less than
-/// [`FULL_ROUND_GAIN`] times the scouting round's (`scouted`) samples: the `survivors` share
-/// [`FULL_ROUND_SHARE`] of the time a render of `spp` samples would take with the
+/// `FULL_ROUND_GAIN` times the scouting round's (`scouted`) samples: the `survivors` share
+/// `FULL_ROUND_SHARE` of the time a render of `spp` samples would take with the
 /// fastest-converging of them (by the scouts' timings), so the round costs the same share
 /// however slow the losers are. It spends that on more samples rather than on more than about
-/// [`TRIAL_PIXELS`] pixels ([`plan_on_rows`]), and at least [`LEAST_FULL_ROUND_SPP`] samples
+/// `TRIAL_PIXELS` pixels ([`plan_on_rows`]), and at least `LEAST_FULL_ROUND_SPP` samples
 /// a pixel on any device, on pixels thinned out no further than to `least_pixels`
 /// ([`with_least_samples_on`], [`full_round_least_pixels`]): a small image would otherwise
 /// spend it on [`TRIAL_SPP`] samples on every row (and on a CPU replace the scouts' figures
@@ -646,7 +646,7 @@ pub fn full_round_plan(
 const TRIAL_PIXELS: u64 = 1 << 18;
 
 /// The plan of `budget` full-image samples per pixel on every `step`-th row: as many whole
-/// [`TRIAL_SPP`]s as that affords there, up to [`MAX_TRIAL_SPP`] (past which the rows grow
+/// [`TRIAL_SPP`]s as that affords there, up to `MAX_TRIAL_SPP` (past which the rows grow
 /// closer); a budget of less than [`TRIAL_SPP`] on those rows thins them out
 /// ([`plan_for_budget`]).
 pub fn plan_on_rows(budget: f64, step: u32, height: u32) -> TrialPlan {
@@ -670,9 +670,9 @@ pub fn plan_on_rows(budget: f64, step: u32, height: u32) -> TrialPlan {
 
 /// The scouting round of a long render's trial for `candidates` on an image of `width` x
 /// `height`: [`TRIAL_SPP`] samples on every fourth row's worth, or less where that would cost
-/// more than [`SCOUT_SHARE`] of a render of `spp` samples, but never fewer than `min_paths`
-/// paths a candidate ([`min_scout_paths`]); spent on more samples rather than on more than
-/// about [`TRIAL_PIXELS`] pixels.
+/// more than `SCOUT_SHARE` of a render of `spp` samples, but never fewer than `min_paths`
+/// paths a candidate (`min_scout_paths`); spent on more samples rather than on more than
+/// about `TRIAL_PIXELS` pixels.
 pub fn scout_plan(
     candidates: usize,
     spp: Option<u32>,
@@ -797,7 +797,7 @@ impl Choice {
 
     /// The candidates worth a full trial after a scouting round, by index into `measured`:
     /// the chosen one, and every trusted one whose relMSE × seconds is not clearly worse (by
-    /// [`DROP_MARGIN`] and [`DROP_SIGMAS`] standard errors). The chosen one comes last, so
+    /// `DROP_MARGIN` and `DROP_SIGMAS` standard errors). The chosen one comes last, so
     /// that, when it wins again, its film is the last rendered and can be kept.
     pub fn survivors(&self) -> Vec<usize> {
         let best = &self.measured[self.chosen];
@@ -966,7 +966,7 @@ fn denominator_weights(totals: &[(f64, f64)], missed: &[bool], samples: u32) -> 
 /// - The denominator of the relative variance is the mean image of the most precise candidate
 ///   (least standard error of the image mean, relative to it), not an average: a rare bright
 ///   sample would raise its own pixel's denominator and hide its variance.
-/// - A candidate whose image mean lies more than [`MISSED_SIGMAS`] standard errors below the
+/// - A candidate whose image mean lies more than `MISSED_SIGMAS` standard errors below the
 ///   most precise one's has, by the two being unbiased estimates of the same image, missed
 ///   rare bright paths, and its variance reads low: it is not chosen.
 pub fn choose(

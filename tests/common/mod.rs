@@ -171,9 +171,9 @@ use clpt::contract::{Material, OBJECT_PLANE, OBJECT_SPHERE, Plane, Sphere};
 use clpt::device::kernel::NamedArgs;
 use clpt::device::upload::SceneBuffers;
 use clpt::pack::PackedScene;
-use clpt::pack::shapes::cube_box;
 use clpt::scene::CameraDesc;
 use clpt::scene::camera::CameraBasis;
+use clpt::shapes::cube_box;
 use glam::DVec3;
 
 /// A packed scene made in code (for probes), with a pinhole camera at the origin looking down -z.
@@ -207,7 +207,7 @@ pub fn packed(spheres: Vec<Sphere>, planes: Vec<Plane>, materials: Vec<Material>
         packed.push_object(OBJECT_PLANE, packed.planes.len(), world_box);
         packed.planes.push(p);
     }
-    packed.finish();
+    packed.finish(clpt::shapes::emitters);
     packed
 }
 

@@ -9,7 +9,8 @@
 
 use clpt::contract::{Plane, Sphere};
 use clpt::scene::camera::CameraBasis;
-use clpt::scene::{MaterialKind, PlaneShape, Scene, Shape, SphereShape};
+use clpt::scene::{MaterialKind, Scene};
+use clpt::shapes::{PlaneShape, Shape, SphereShape};
 use glam::DVec3;
 use rand::{Rng, RngExt};
 

@@ -3,7 +3,7 @@
 //! instances use it, and one instance an object; an emitting mesh's triangles that some path
 //! can see are light-list entries.
 
-use super::{HostShape, MeshFiles, ObjectPlace, Placement, all_finite, transform_box};
+use super::{HostShape, MeshFiles, ObjectPlace, Placement, ShapeSyntax, all_finite, transform_box};
 use crate::accel::aabb::Aabb;
 use crate::accel::kdtree::{KdParams, KdTree};
 use crate::accel::wide_bvh::WideBvh;
@@ -12,11 +12,40 @@ use crate::error::{Error, Result};
 use crate::pack::convert::f32x3;
 use crate::pack::lights::{Affine, LightSources, Room, TRIANGLE, constant_emission, dvec};
 use crate::pack::{MeshInfo, PackedScene};
-use crate::scene::MeshShape;
-use crate::scene::mesh::TriangleMesh;
+use crate::elements::mesh::TriangleMesh;
+use crate::elements::syntax::{self, Cursor, Token};
 use glam::DVec3;
 use std::f64::consts::PI;
+use std::path::PathBuf;
 use std::time::Instant;
+
+/// `Mesh { obj_file PATH }` or `TriangleMesh { obj_file PATH }`: the path as written,
+/// resolved like texture paths when the mesh is loaded.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshShape {
+    pub file: PathBuf,
+}
+
+impl ShapeSyntax for MeshShape {
+    const KEYWORDS: &'static [&'static str] = &["Mesh", "TriangleMesh"];
+    const KIND: u32 = contract::OBJECT_MESH;
+
+    fn parse<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> syntax::Result<Self> {
+        cur.open_block(keyword)?;
+        let mut file = None;
+        let close = loop {
+            let key = cur.field()?;
+            match key.text {
+                "}" => break key,
+                "obj_file" => cur.once(&mut file, key, |c| c.path("obj_file"))?,
+                _ => return Err(cur.unknown_field(key, keyword, &["obj_file", "}"])),
+            }
+        };
+        Ok(MeshShape {
+            file: cur.required(file, "obj_file", keyword, close)?,
+        })
+    }
+}
 
 impl HostShape for MeshShape {
     /// An instance of the OBJ file's mesh, loaded and pushed once for each way it is placed
@@ -28,7 +57,7 @@ impl HostShape for MeshShape {
         files: &mut MeshFiles,
     ) -> Result<usize> {
         let at = &object.at;
-        let path = crate::scene::resolve("mesh", &self.file, files.base_dir, object.location)?;
+        let path = crate::elements::resolve("mesh", &self.file, files.base_dir, object.location)?;
         let key = (path, at.transform.is_none());
         let mesh = match files.loaded.get(&key) {
             Some(&m) => m,

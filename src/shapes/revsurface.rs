@@ -3,13 +3,43 @@
 //! relative to the profile's own size (the packing module's doc). Light sampling does not pick
 //! them: BSDF sampling finds an emitting one.
 
-use super::{HostShape, MeshFiles, ObjectPlace, Placement, all_finite, transform_box};
+use super::{HostShape, MeshFiles, ObjectPlace, Placement, ShapeSyntax, all_finite, transform_box};
 use crate::accel::aabb::Aabb;
-use crate::contract::RevSurface;
+use crate::contract::{self, RevSurface};
+use crate::elements::curve::Curve;
+use crate::elements::syntax::{self, Cursor, Token};
 use crate::error::Result;
 use crate::pack::PackedScene;
-use crate::scene::RevSurfaceShape;
 use glam::{DMat4, DVec3};
+
+/// `RevSurface { profile ... }`: the profile curve revolved about the y axis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RevSurfaceShape {
+    pub curve: Curve,
+}
+
+impl ShapeSyntax for RevSurfaceShape {
+    const KEYWORDS: &'static [&'static str] = &["RevSurface"];
+    const KIND: u32 = contract::OBJECT_REVSURFACE;
+
+    /// `RevSurface { profile BezierCurve|BsplineCurve { controls [ x y z ] ... } }`: a profile
+    /// in the xy-plane, revolved about the y axis.
+    fn parse<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> syntax::Result<Self> {
+        cur.open_block(keyword)?;
+        let mut curve = None;
+        let close = loop {
+            let key = cur.field()?;
+            match key.text {
+                "}" => break key,
+                "profile" => cur.once(&mut curve, key, |c| c.curve())?,
+                _ => return Err(cur.unknown_field(key, keyword, &["profile", "}"])),
+            }
+        };
+        Ok(RevSurfaceShape {
+            curve: cur.required(curve, "profile", keyword, close)?,
+        })
+    }
+}
 
 impl HostShape for RevSurfaceShape {
     fn pack(

@@ -2,15 +2,48 @@
 //! device's origin (the packing module's doc); an emitting sphere of uniform scale is one
 //! light-list entry, sampled over the cap some path can see.
 
-use super::{HostShape, MeshFiles, ObjectPlace, Placement, all_finite, cube_box};
+use super::{HostShape, MeshFiles, ObjectPlace, Placement, ShapeSyntax, all_finite, cube_box};
 use crate::accel::aabb::Aabb;
 use crate::contract::{self, Light, Sphere};
+use crate::elements::syntax::{self, Cursor, Token};
 use crate::error::Result;
 use crate::pack::PackedScene;
 use crate::pack::convert::{f32x3, split_f32, split_f32x3};
 use crate::pack::lights::{Affine, LightSources, Room, Visible, constant_emission, visible_cap};
-use crate::scene::SphereShape;
+use glam::DVec3;
 use std::f64::consts::PI;
+
+/// `Sphere { center V radius F }`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SphereShape {
+    pub center: DVec3,
+    pub radius: f64,
+}
+
+const FIELDS: [&str; 3] = ["center", "radius", "}"];
+
+impl ShapeSyntax for SphereShape {
+    const KEYWORDS: &'static [&'static str] = &["Sphere"];
+    const KIND: u32 = contract::OBJECT_SPHERE;
+
+    fn parse<'a>(cur: &mut Cursor<'a>, keyword: Token<'a>) -> syntax::Result<Self> {
+        cur.open_block(keyword)?;
+        let (mut center, mut radius) = (None, None);
+        let close = loop {
+            let key = cur.field()?;
+            match key.text {
+                "}" => break key,
+                "center" => cur.once(&mut center, key, |c| c.vector("center").map(|(v, _)| v))?,
+                "radius" => cur.once(&mut radius, key, |c| c.positive("radius"))?,
+                _ => return Err(cur.unknown_field(key, keyword, &FIELDS)),
+            }
+        };
+        Ok(SphereShape {
+            center: cur.required(center, "center", keyword, close)?,
+            radius: cur.required(radius, "radius", keyword, close)?,
+        })
+    }
+}
 
 impl HostShape for SphereShape {
     fn pack(
@@ -32,6 +65,10 @@ impl HostShape for SphereShape {
             transform,
         });
         Ok(packed.spheres.len() - 1)
+    }
+
+    fn texture_axes(&self) -> std::result::Result<(), String> {
+        Ok(())
     }
 
     fn world_bounds(&self, packed: &PackedScene, index: usize, at: &Placement) -> Aabb {

@@ -9,7 +9,7 @@
 //! going to the earlier of those; a bump map's red channel is differentiated centrally along u and
 //! v into gradients in [-1, 1].
 
-use super::{PlaneShape, Scene, Shape};
+use super::Material;
 use crate::contract::{self, MAP_BUMP8, MAP_RGB8, MAP_TYPE8, TextureMap};
 use crate::error::{Error, Result};
 use crate::input::{gib, host_available_bytes};
@@ -80,8 +80,8 @@ impl RgbImage {
 ///
 /// Sizes come from the file's header, so nothing is allocated before they are checked: the
 /// file must be a regular file of at most [`max_file_bytes`], long enough for the image its
-/// header claims ([`fewest_file_bytes`]: a 69-byte PPM claiming 100000x100000 pixels is cut
-/// short), and decoding must fit the memory the machine has available ([`decoding_bytes`]);
+/// header claims (`fewest_file_bytes`: a 69-byte PPM claiming 100000x100000 pixels is cut
+/// short), and decoding must fit the memory the machine has available (`decoding_bytes`);
 /// the pixel buffers are then reserved fallibly (the image crate's own `vec!` would abort the
 /// process when an allocation fails).
 pub fn decode(path: &Path, max_pixels: u64) -> Result<RgbImage> {
@@ -289,23 +289,23 @@ pub struct TexturePack {
 }
 
 impl TexturePack {
-    /// Loads the maps of the materials that objects use (unused materials' files are not even
-    /// opened, as the original's scenes declare many).
-    pub fn load(scene: &Scene, max_pixels: u64) -> Result<TexturePack> {
+    /// Loads the maps of the materials marked `used` (unused materials' files are not even
+    /// opened, as the original's scenes declare many), their relative paths looked up from
+    /// `base_dir` ([`super::resolve`]).
+    pub fn load(
+        materials: &[Material],
+        used: &[bool],
+        base_dir: Option<&Path>,
+        max_pixels: u64,
+    ) -> Result<TexturePack> {
         let mut pack = TexturePack {
-            material_maps: vec![[contract::MAP_NONE; 4]; scene.materials.len()],
+            material_maps: vec![[contract::MAP_NONE; 4]; materials.len()],
             ..TexturePack::default()
         };
-        let mut used = vec![false; scene.materials.len()];
-        for object in &scene.objects {
-            if let Some(u) = used.get_mut(object.material) {
-                *u = true;
-            }
-        }
         let mut images: HashMap<PathBuf, RgbImage> = HashMap::new();
         let mut packed: HashMap<(PathBuf, MapKind), u32> = HashMap::new();
-        for (index, material) in scene.materials.iter().enumerate() {
-            if !used[index] {
+        for (index, material) in materials.iter().enumerate() {
+            if !used.get(index).copied().unwrap_or(false) {
                 continue;
             }
             let files = [
@@ -316,12 +316,7 @@ impl TexturePack {
             ];
             for (slot, (kind, file)) in files.into_iter().enumerate() {
                 let Some(file) = file else { continue };
-                let path = super::resolve(
-                    "texture",
-                    file,
-                    scene.base_dir.as_deref(),
-                    &material.location,
-                )?;
+                let path = super::resolve("texture", file, base_dir, &material.location)?;
                 if let Some(&map) = packed.get(&(path.clone(), kind)) {
                     pack.material_maps[index][slot] = map;
                     continue;
@@ -335,7 +330,6 @@ impl TexturePack {
                 pack.material_maps[index][slot] = map;
             }
         }
-        check_mapped_shapes(scene, &pack)?;
         Ok(pack)
     }
 
@@ -417,41 +411,6 @@ impl TexturePack {
         }
         out
     }
-}
-
-/// Plane texture coordinates run along dirU and dirV: a mapped plane needs both. Meshes have
-/// no texture coordinates (the OBJ loader does not read them): maps on them are refused.
-fn check_mapped_shapes(scene: &Scene, pack: &TexturePack) -> Result<()> {
-    for object in &scene.objects {
-        let mapped = pack
-            .material_maps
-            .get(object.material)
-            .is_some_and(|m| m.iter().any(|&i| i != contract::MAP_NONE));
-        if !mapped {
-            continue;
-        }
-        match &object.shape {
-            Shape::Plane(PlaneShape { dir_u, dir_v, .. })
-                if dir_u.length() == 0.0 || dir_v.length() == 0.0 =>
-            {
-                return Err(Error::Invalid(format!(
-                    "{}: this plane's material has texture maps, so the plane needs non-zero \
-                     `dirU` and `dirV` (they set the texture's axes and tile size)",
-                    object.location
-                )));
-            }
-            Shape::Mesh(_) | Shape::RevSurface(_) => {
-                return Err(Error::Invalid(format!(
-                    "{}: this object's material has texture maps, but meshes and surfaces of \
-                     revolution carry no texture coordinates in clpt (give it a material \
-                     without `texture`)",
-                    object.location
-                )));
-            }
-            _ => {}
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]
