@@ -1,7 +1,7 @@
 /* kdtree.h: nearest hit of a ray with a mesh through its kd-tree (port of kd-tree.cuh).
  *
- * Reads: the mesh's KdNode array (layout in types.h), its triangle index list, triangles and
- * vertices. Writes: nothing. The ray is in the mesh's object space (direction not normalised).
+ * Reads: the mesh's KdNode array (layout in types.h), its leaves' triangle slots (in the
+ * kd_indices buffer, triangle.h `slots_intersect`) and vertices. Writes: nothing. The ray is in the mesh's object space (direction not normalised).
  * Traversal is front to back with a small stack of (node, t_min, t_max): a node's children are
  * visited nearer first, and the walk stops as soon as the nearest hit found lies before the next
  * node's interval (pbrt-v3 section 4.5.3). The original instead visited every leaf the ray
@@ -21,25 +21,9 @@ typedef struct KdTodo {
     float t0, t1;
 } KdTodo;
 
-/* Updates *t, *prim, *b1, *b2 with the nearest hit in (0, *t) of the ray with the `count`
- * triangles of mesh m numbered in `list` (a leaf of its tree); whether there was one. */
-inline bool leaf_intersect(__global const MeshDesc* m, __global const uint* list, uint count,
-                           __global const uint* triangles, __global const float* vertices,
-                           const WatertightRay* ray, float* t, uint* prim, float* b1, float* b2) {
-    bool found = false;
-    for (uint i = 0u; i < count; ++i) {
-        const uint tri = list[i];
-        const uint3 v = vload3(m->first_triangle + tri, triangles) + m->first_vertex;
-        found |= leaf_triangle(ray, mesh_vertex(vertices, v.x), mesh_vertex(vertices, v.y),
-                               mesh_vertex(vertices, v.z), tri, t, prim, b1, b2);
-    }
-    return found;
-}
-
 /* Updates *t, *prim, *b1, *b2 with the nearest hit in (0, *t) of o + t d with mesh `m`. */
 inline bool kdtree_intersect(__global const MeshDesc* m, __global const KdNode* kd_nodes,
-                             __global const uint* kd_indices, __global const uint* triangles,
-                             __global const float* vertices, float3 o, float3 d, float* t,
+                             __global const uint* kd_indices, __global const float* vertices, float3 o, float3 d, float* t,
                              uint* prim, float* b1, float* b2) {
     const float3 inv_d = 1.0f / d;
     float t0 = 0.0f;
@@ -87,8 +71,8 @@ inline bool kdtree_intersect(__global const MeshDesc* m, __global const KdNode* 
             }
             continue;
         }
-        found |= leaf_intersect(m, kd_indices + m->first_index + n.data, n.flags >> 2, triangles,
-                                vertices, &ray, t, prim, b1, b2);
+        found |= slots_intersect(kd_indices + m->first_index + LEAF_SLOT * n.data, n.flags >> 2,
+                                 vertices, &ray, t, prim, b1, b2);
         if (top == 0) {
             break;
         }

@@ -39,8 +39,8 @@ inline bool mesh_tree_intersect(const Scene* sc, __global const MeshDesc* m, flo
     return wide_bvh_intersect(m, (__global const WideBvhNode*)sc->kd_nodes, sc->kd_indices,
                               sc->vertices, o, d, t, prim, b1, b2);
 #else
-    return kdtree_intersect(m, sc->kd_nodes, sc->kd_indices, sc->triangles, sc->vertices, o, d,
-                            t, prim, b1, b2);
+    return kdtree_intersect(m, sc->kd_nodes, sc->kd_indices, sc->vertices, o, d, t, prim, b1,
+                            b2);
 #endif
 }
 

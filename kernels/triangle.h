@@ -83,7 +83,7 @@ inline float3 mesh_vertex(__global const float* vertices, uint i) {
 }
 
 /* Updates *t, *prim, *b1, *b2 where the ray meets triangle `tri` (vertices a, b, c) in
- * (0, *t); whether it does. Both trees' leaves (kdtree.h's and wide_bvh.h's) test through it. */
+ * (0, *t); whether it does. */
 inline bool leaf_triangle(const WatertightRay* ray, float3 a, float3 b, float3 c, uint tri,
                           float* t, uint* prim, float* b1, float* b2) {
     float th, u1, u2;
@@ -95,6 +95,23 @@ inline bool leaf_triangle(const WatertightRay* ray, float3 a, float3 b, float3 c
     *b1 = u1;
     *b2 = u2;
     return true;
+}
+
+/* Updates *t, *prim, *b1, *b2 with the nearest hit in (0, *t) of the ray with the `count`
+ * triangles of a tree leaf's slots (LEAF_SLOT words each: the vertices' numbers in the scene's
+ * vertex array, then the triangle's number in its mesh; src/shapes/mesh.rs). A slot is read at
+ * once, so a triangle costs one load before its vertices, where a list of triangle numbers cost
+ * two (BENCHMARKS.md, "Leaf slots"). Both trees' leaves (kdtree.h's and wide_bvh.h's) use it. */
+inline bool slots_intersect(__global const uint* slots, uint count,
+                            __global const float* vertices, const WatertightRay* ray, float* t,
+                            uint* prim, float* b1, float* b2) {
+    bool found = false;
+    for (uint i = 0u; i < count; ++i) {
+        const uint4 s = vload4(i, slots);
+        found |= leaf_triangle(ray, mesh_vertex(vertices, s.x), mesh_vertex(vertices, s.y),
+                               mesh_vertex(vertices, s.z), s.w, t, prim, b1, b2);
+    }
+    return found;
 }
 
 #endif

@@ -2,8 +2,7 @@
  * kdtree.h on a GPU; src/accel/wide_bvh.rs builds the tree, render/mod.rs `MeshTree` chooses).
  *
  * Reads: the mesh's WideBvhNode array (types.h), its leaves' triangle slots (in the kd_indices
- * buffer: each slot the triangle's three vertex numbers in the scene's vertex array and its
- * number in its mesh, src/pack/mod.rs) and vertices. Writes: nothing. The ray is in the
+ * buffer, triangle.h `slots_intersect`) and vertices. Writes: nothing. The ray is in the
  * mesh's object space (direction not normalised).
  * Why: a CPU walks a mesh one ray at a time, a wide program (lanes.h) one lane's after another;
  * where a kd-tree step decides one split plane, a wide node's eight boxes are tested at once on
@@ -18,25 +17,20 @@
 #include "triangle.h"
 #include "aabb.h"
 
+/* Asks for the cache lines of the `bytes` bytes at p ahead of their use where the compiler can
+ * (clang's __builtin_prefetch: PoCL builds with clang; OpenCL's own `prefetch` bought nothing
+ * there); does nothing elsewhere. */
+inline void prefetch_lines(__global const char* p, uint bytes) {
+#if defined(__clang__)
+    for (uint at = 0u; at < bytes; at += 64u) {
+        __builtin_prefetch(p + at);
+    }
+#endif
+}
+
 /* At most seven children wait per level of the path from the root, and the host's trees have
  * at most 64 levels (accel/wide_bvh.rs: SAH splits to depth 32, object medians below). */
 #define WIDE_BVH_STACK 448
-
-/* Updates *t, *prim, *b1, *b2 with the nearest hit in (0, *t) of the ray with the `count`
- * triangles of a leaf's slots. A slot holds its vertices' numbers, so a test loads them at once
- * where a kd-tree leaf goes from index to triangle to vertex: 2 to 3% less user CPU on the
- * dragon room (BENCHMARKS.md, "Leaf slots"). */
-inline bool wide_leaf_intersect(__global const uint* slots, uint count,
-                                __global const float* vertices, const WatertightRay* ray,
-                                float* t, uint* prim, float* b1, float* b2) {
-    bool found = false;
-    for (uint i = 0u; i < count; ++i) {
-        const uint4 s = vload4(i, slots);
-        found |= leaf_triangle(ray, mesh_vertex(vertices, s.x), mesh_vertex(vertices, s.y),
-                               mesh_vertex(vertices, s.z), s.w, t, prim, b1, b2);
-    }
-    return found;
-}
 
 /* Updates *t, *prim, *b1, *b2 with the nearest hit in (0, *t) of o + t d with mesh `m`. */
 inline bool wide_bvh_intersect(__global const MeshDesc* m, __global const WideBvhNode* all_nodes,
@@ -74,6 +68,18 @@ inline bool wide_bvh_intersect(__global const MeshDesc* m, __global const WideBv
         uint bits = (uint)(f2.x | f2.y);
         float near[8];
         vstore8(t0, 0, near);
+        /* What the children entered will read, asked for before it is needed: the loop below
+         * tests this node's leaves before the walk moves on, and a CPU's walk otherwise waits
+         * on each node's and slot's load (BENCHMARKS.md, "Prefetching the wide BVH"). */
+        for (uint ahead = bits; ahead != 0u; ahead &= ahead - 1u) {
+            const uint c = n->child[ctz(ahead)];
+            if ((c & WIDE_BVH_LEAF) == 0u) {
+                prefetch_lines((__global const char*)(nodes + c), sizeof(WideBvhNode));
+            } else {
+                prefetch_lines((__global const char*)(indices + LEAF_SLOT * (c & 0x0FFFFFFFu)),
+                               4u * LEAF_SLOT * (((c >> 28) & 7u) + 1u));
+            }
+        }
         uint next = WIDE_BVH_EMPTY;
         float next_t = 0.0f;
         while (bits != 0u) {
@@ -81,9 +87,8 @@ inline bool wide_bvh_intersect(__global const MeshDesc* m, __global const WideBv
             bits &= bits - 1u;
             const uint c = n->child[k];
             if ((c & WIDE_BVH_LEAF) != 0u) {
-                found |= wide_leaf_intersect(indices + WIDE_BVH_SLOT * (c & 0x0FFFFFFFu),
-                                             ((c >> 28) & 7u) + 1u, vertices, &ray, t, prim,
-                                             b1, b2);
+                found |= slots_intersect(indices + LEAF_SLOT * (c & 0x0FFFFFFFu),
+                                         ((c >> 28) & 7u) + 1u, vertices, &ray, t, prim, b1, b2);
                 continue;
             }
             uint wait = c;

@@ -35,7 +35,7 @@ scene_buffers! {
     mesh_instances: "MeshInstance",
     /// Every mesh's tree nodes: `KdNode`s, or `WideBvhNode`s in a wide-BVH program.
     kd_nodes: "KdNode",
-    /// The kd-trees' triangle lists, or the wide BVHs' leaf slots (`WIDE_BVH_SLOT` words each).
+    /// The mesh trees' leaf slots (`LEAF_SLOT` words each).
     kd_indices: "uint",
     /// Every mesh's triangles as vertex-number triples.
     triangles: "uint",

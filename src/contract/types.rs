@@ -52,10 +52,10 @@ shared! {
     pub const WIDE_BVH_LEAF: u32 = 0x8000_0000;
     /// An unused child slot of a wide BVH node (its box empty).
     pub const WIDE_BVH_EMPTY: u32 = u32::MAX;
-    /// The words of a leaf's triangle slot, which a wide BVH's first index counts in (in the
+    /// The words of a tree leaf's triangle slot, which both mesh trees' leaves count in (in the
     /// kd_indices buffer): the triangle's three vertices' numbers in the scene's vertex array
-    /// and its number in its mesh (src/pack/mod.rs, wide_bvh.h).
-    pub const WIDE_BVH_SLOT: u32 = 4;
+    /// and its number in its mesh (src/shapes/mesh.rs, triangle.h `slots_intersect`).
+    pub const LEAF_SLOT: u32 = 4;
 
     /// A node of a mesh's 8-wide BVH (src/accel/wide_bvh.rs, wide_bvh.h), a CPU's mesh tree:
     /// the boxes of up to eight children as arrays per bound, so that one ray tests all eight

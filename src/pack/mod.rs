@@ -71,7 +71,7 @@ pub struct PackedScene {
     /// Whether meshes carry 8-wide BVHs ([`crate::accel::wide_bvh::WideBvh`], on a CPU:
     /// kernels/wide_bvh.h) in `wide_nodes`, instead of kd-trees in `kd_nodes`; either way their leaves' triangles
     /// are in `kd_indices` (a kd-tree's as numbers, a wide BVH's as slots of
-    /// `WIDE_BVH_SLOT` words), and the kernels' mesh-node buffer holds the one kind.
+    /// `LEAF_SLOT` words), and the kernels' mesh-node buffer holds the one kind.
     pub wide_bvh: bool,
     pub kd_nodes: Vec<KdNode>,
     pub wide_nodes: Vec<WideBvhNode>,

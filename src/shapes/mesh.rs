@@ -151,6 +151,27 @@ impl HostShape for MeshShape {
     }
 }
 
+/// Pushes a tree's leaf slots, one for each of its triangle numbers `indices`: the triangle's
+/// vertices, numbered in the scene's vertex array (where the mesh's vertices go next), and its
+/// number in the mesh. A leaf's triangle then costs one load of its slot before its vertices,
+/// where a list of triangle numbers cost two (kernels/triangle.h, `slots_intersect`).
+fn push_slots(
+    packed: &mut PackedScene,
+    mesh: &TriangleMesh,
+    indices: &[u32],
+) -> std::result::Result<(), std::num::TryFromIntError> {
+    const { assert!(contract::LEAF_SLOT == 4) };
+    let first_vertex = packed.vertices.len();
+    packed.kd_indices.reserve(indices.len() * 4);
+    for &number in indices {
+        for v in mesh.triangles[number as usize] {
+            packed.kd_indices.push(u32::try_from(first_vertex + v as usize)?);
+        }
+        packed.kd_indices.push(number);
+    }
+    Ok(())
+}
+
 /// Pushes a loaded mesh: its tree, triangles, vertices and normals; its number.
 fn push_mesh(packed: &mut PackedScene, mesh: TriangleMesh) -> Result<u32> {
     let start = Instant::now();
@@ -173,24 +194,12 @@ fn push_mesh(packed: &mut PackedScene, mesh: TriangleMesh) -> Result<u32> {
                 .into(),
         })?;
         packed.wide_nodes.extend(&tree.nodes);
-        // Each leaf slot: the triangle's vertices, numbered in the scene's vertex array,
-        // and its number in the mesh (kernels/wide_bvh.h reads them at once).
-        const { assert!(contract::WIDE_BVH_SLOT == 4) };
-        let first_vertex = packed.vertices.len();
-        for &number in &tree.indices {
-            let tri = mesh.triangles[number as usize];
-            for v in tri {
-                let v =
-                    u32::try_from(first_vertex + v as usize).map_err(|_| too_big("vertices"))?;
-                packed.kd_indices.push(v);
-            }
-            packed.kd_indices.push(number);
-        }
+        push_slots(packed, &mesh, &tree.indices).map_err(|_| too_big("vertices"))?;
         (tree.bounds, tree.nodes.len() * size_of::<WideBvhNode>())
     } else {
         let tree = KdTree::build(&mesh.positions, &mesh.triangles, &KdParams::default());
         packed.kd_nodes.extend(&tree.nodes);
-        packed.kd_indices.extend(&tree.indices);
+        push_slots(packed, &mesh, &tree.indices).map_err(|_| too_big("vertices"))?;
         (tree.bounds, tree.nodes.len() * size_of::<KdNode>())
     };
     let (lo, hi) = bounds.to_f32_outward();
