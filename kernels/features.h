@@ -28,6 +28,9 @@
  *                     the others, it follows CLPT_LANES when absent (the probes of each width)
  *   CLPT_WIDE_BVH     meshes walk 8-wide BVHs (wide_bvh.h); 0: kd-trees (kdtree.h). Follows
  *                     CLPT_WIDE when absent; a wide program needs it
+ *   CLPT_PREFETCH     the wide BVH asks for its children's nodes and slots ahead with clang's
+ *                     __builtin_prefetch (wide_bvh.h): set for CPUs (NVIDIA's compiler
+ *                     refuses it on global pointers)
  */
 #ifndef CLPT_FEATURES_H
 #define CLPT_FEATURES_H
@@ -64,6 +67,9 @@
 #endif
 #ifndef CLPT_WIDE_BVH
 #define CLPT_WIDE_BVH CLPT_WIDE
+#endif
+#ifndef CLPT_PREFETCH
+#define CLPT_PREFETCH 0
 #endif
 
 #endif

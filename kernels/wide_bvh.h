@@ -13,15 +13,17 @@
 #ifndef CLPT_WIDE_BVH_H
 #define CLPT_WIDE_BVH_H
 
-#include "types.h"
-#include "triangle.h"
 #include "aabb.h"
+#include "features.h"
+#include "triangle.h"
+#include "types.h"
 
-/* Asks for the cache lines of the `bytes` bytes at p ahead of their use where the compiler can
- * (clang's __builtin_prefetch: PoCL builds with clang; OpenCL's own `prefetch` bought nothing
- * there); does nothing elsewhere. */
+/* Asks for the cache lines of the `bytes` bytes at p ahead of their use, with CLPT_PREFETCH
+ * (a CPU's program: clang's __builtin_prefetch, which PoCL's compiler takes; OpenCL's own
+ * `prefetch` bought nothing there, and NVIDIA's compiler refuses the builtin on a global
+ * pointer); does nothing elsewhere. */
 inline void prefetch_lines(__global const char* p, uint bytes) {
-#if defined(__clang__)
+#if CLPT_PREFETCH
     for (uint at = 0u; at < bytes; at += 64u) {
         __builtin_prefetch(p + at);
     }

@@ -54,6 +54,11 @@ pub struct Features {
     /// (`--mesh-tree`, or the device's: [`crate::render::MeshTree::default_on`]); `of` leaves
     /// it off.
     pub wide_bvh: bool,
+    /// The 8-wide BVH asks for what it will read ahead (kernels/wide_bvh.h, `prefetch_lines`):
+    /// set by the renderer for CPU devices ([`Features::prefetch_on`]), whose compilers
+    /// (PoCL's clang) take the hint; NVIDIA's refuses it on global pointers. `of` leaves it
+    /// off.
+    pub prefetch: bool,
     /// Paths a work-item carries (kernels/lanes.h): above 1 on a CPU device where the program
     /// has only what the wide kernels are written for ([`Features::wide_lanes`]); `of` leaves
     /// it at 1.
@@ -115,6 +120,7 @@ impl Features {
             nee: false,
             regenerate: false,
             wide_bvh: false,
+            prefetch: false,
             lanes: 1,
         }
     }
@@ -159,6 +165,11 @@ impl Features {
     /// next sample starts.
     pub fn regeneration_on(device: &crate::device::DeviceDescription) -> bool {
         device.is_gpu && device.platform.contains("NVIDIA")
+    }
+
+    /// Whether `device`'s programs prefetch ([`Features::prefetch`]): a CPU's.
+    pub fn prefetch_on(device: &crate::device::DeviceDescription) -> bool {
+        !device.is_gpu
     }
 
     /// The lanes a work-item of this program carries on `device` (kernels/lanes.h,
@@ -211,6 +222,7 @@ impl Features {
             ("CLPT_REGENERATE", flag(self.regenerate)),
             ("CLPT_WIDE", flag(self.lanes > 1)),
             ("CLPT_WIDE_BVH", flag(self.wide_bvh)),
+            ("CLPT_PREFETCH", flag(self.prefetch)),
             ("CLPT_LANES", self.lanes.to_string()),
         ];
         kinds.chain(rest).collect()

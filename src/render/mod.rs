@@ -787,6 +787,7 @@ impl<'d> Renderer<'d> {
             features.regenerate = Features::regeneration_on(&device.description);
             features.lanes = lanes;
             features.wide_bvh = wide_bvh;
+            features.prefetch = Features::prefetch_on(&device.description);
             features.walls |= features.walls_on(&params.walls, &device.description);
             let program = program::build_entry(
                 device,
