@@ -21,14 +21,14 @@
 /* Asks for the cache lines of the `bytes` bytes at p ahead of their use, with CLPT_PREFETCH
  * (a CPU's program: clang's __builtin_prefetch, which PoCL's compiler takes; OpenCL's own
  * `prefetch` bought nothing there, and NVIDIA's compiler refuses the builtin on a global
- * pointer); does nothing elsewhere. */
-inline void prefetch_lines(__global const char* p, uint bytes) {
+ * pointer); absent elsewhere, with the loop that calls it. */
 #if CLPT_PREFETCH
+inline void prefetch_lines(__global const char* p, uint bytes) {
     for (uint at = 0u; at < bytes; at += 64u) {
         __builtin_prefetch(p + at);
     }
-#endif
 }
+#endif
 
 /* At most seven children wait per level of the path from the root, and the host's trees have
  * at most 64 levels (accel/wide_bvh.rs: SAH splits to depth 32, object medians below). */
@@ -73,6 +73,7 @@ inline bool wide_bvh_intersect(__global const MeshDesc* m, __global const WideBv
         /* What the children entered will read, asked for before it is needed: the loop below
          * tests this node's leaves before the walk moves on, and a CPU's walk otherwise waits
          * on each node's and slot's load (BENCHMARKS.md, "Prefetching the wide BVH"). */
+#if CLPT_PREFETCH
         for (uint ahead = bits; ahead != 0u; ahead &= ahead - 1u) {
             const uint c = n->child[ctz(ahead)];
             if ((c & WIDE_BVH_LEAF) == 0u) {
@@ -82,6 +83,7 @@ inline bool wide_bvh_intersect(__global const MeshDesc* m, __global const WideBv
                                4u * LEAF_SLOT * (((c >> 28) & 7u) + 1u));
             }
         }
+#endif
         uint next = WIDE_BVH_EMPTY;
         float next_t = 0.0f;
         while (bits != 0u) {

@@ -663,7 +663,7 @@ mod tests {
     }
 
     #[test]
-    pub(crate) fn brackets_split_from_words_and_comments_are_skipped() {
+    fn brackets_split_from_words_and_comments_are_skipped() {
         assert_eq!(
             tokens("a{b}[c]# x { y\n#\nd#e\n"),
             [
@@ -680,7 +680,7 @@ mod tests {
     }
 
     #[test]
-    pub(crate) fn end_of_file_is_just_after_the_last_token() {
+    fn end_of_file_is_just_after_the_last_token() {
         let end = |text| {
             let mut cur = Cursor::new(text, "f");
             while cur.next().is_some() {}
@@ -692,7 +692,7 @@ mod tests {
     }
 
     #[test]
-    pub(crate) fn lists_read_as_english() {
+    fn lists_read_as_english() {
         assert_eq!(one_of(&["a"]), "`a`");
         assert_eq!(one_of(&["a", "b", "c"]), "`a`, `b` or `c`");
         assert_eq!(listed(&["a", "b"], "and"), "`a` and `b`");
