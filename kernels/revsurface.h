@@ -540,6 +540,82 @@ inline float annulus_entry(const RevRay* r, float4 box, float pad, float t_lo, f
     return t0 <= t1 ? t0 : t_hi;
 }
 
+/* The nearest hit in (0, *t_best_p) with segment k of the profile (`points`: the segments'
+ * control points), the ray's terms from ray_in (rev_ray; the segment's own are set on a
+ * copy): its parameter range halved depth first until each part holds no root (discarded),
+ * one (solved) or is a chord's size (module doc). Updates *t_best_p, *seg, *u_hit. */
+inline void rev_segment_intersect(__global const float2* points, uint n, uint k, RevRay* ray_in,
+                                  float* t_best_p, uint* seg, float* u_hit, RevWork* work) {
+    __global const float2* p = points + k * (n + 1u);
+    RevRay ray = *ray_in;
+    const float3 o = ray.o, d = ray.d;
+    float t_best = *t_best_p;
+    rev_ray_segment(&ray, p, n);
+    float2 stack[REV_STACK]; /* (u0, u1) */
+    uchar depth[REV_STACK];
+    stack[0] = (float2)(0.0f, 1.0f);
+    depth[0] = 0;
+    int top = 1;
+    while (top > 0) {
+        --top;
+        const float2 iv = stack[top];
+        const uchar dep = depth[top];
+        ++work->nodes;
+        float2 b[REV_MAX_DEGREE + 1];
+        bezier_sub(p, n, iv.x, iv.y, b);
+        float4 box = (float4)(b[0].x, b[0].x, b[0].y, b[0].y);
+        for (uint i = 1u; i <= n; ++i) {
+            box = (float4)(fmin(box.x, b[i].x), fmax(box.y, b[i].x), fmin(box.z, b[i].y),
+                           fmax(box.w, b[i].y));
+        }
+        if (!annulus_reachable(box, o, d, 0.0f, t_best)) {
+            continue;
+        }
+        float f0, f1;
+        const int roots = rev_classify(&ray, b, n, &f0, &f1);
+        if (roots == REV_NONE) {
+            continue;
+        }
+        float th, uh;
+        if (roots == REV_ONE) {
+            if (rev_solve_one(p, n, &ray, iv.x, iv.y, f0, f1, t_best, &th, &uh, work)) {
+                t_best = th;
+                *seg = k;
+                *u_hit = uh;
+            }
+            continue;
+        }
+        const bool tiny = fmax(box.y - box.x, box.w - box.z) <= ray.leaf_size;
+        if (dep >= REV_MAX_DEPTH || tiny) {
+            if (rev_solve_chord(p, n, &ray, b, iv.x, iv.y, t_best, &th, &uh, work)) {
+                t_best = th;
+                *seg = k;
+                *u_hit = uh;
+            } else if (tiny) {
+                /* A sub-curve within rounding of a point (where the profile's speed
+                 * vanishes, a chord is no model of it) that F cannot tell from the ray:
+                 * where the ray enters its box's ring, grown by the box's rounding, it is
+                 * within a few roundings of the surface. */
+                const float t = annulus_entry(&ray, box, ray.leaf_size, 0.0f, t_best);
+                if (t < t_best) {
+                    t_best = t;
+                    *seg = k;
+                    *u_hit = 0.5f * (iv.x + iv.y);
+                }
+            }
+            continue;
+        }
+        const float um = 0.5f * (iv.x + iv.y);
+        stack[top] = (float2)(um, iv.y);
+        depth[top] = dep + 1;
+        ++top;
+        stack[top] = (float2)(iv.x, um);
+        depth[top] = dep + 1;
+        ++top;
+    }
+    *t_best_p = t_best;
+}
+
 /* The nearest hit in (0, t_max) of o + t d (d unit) with the surface: t, or t_max if none;
  * *seg and *u_hit say where on the profile, *work counts what it took. */
 inline float revsurface_intersect(__global const RevSurface* rs, __global const float2* points,
@@ -566,70 +642,17 @@ inline float revsurface_intersect(__global const RevSurface* rs, __global const 
     RevRay ray = rev_ray(o, d);
     float t_best = t_max;
     for (uint k = 0u; k < rs->num_segments; ++k) {
-        __global const float2* p = points + rs->first_point + k * (n + 1u);
-        rev_ray_segment(&ray, p, n);
-        float2 stack[REV_STACK]; /* (u0, u1) */
-        uchar depth[REV_STACK];
-        stack[0] = (float2)(0.0f, 1.0f);
-        depth[0] = 0;
-        int top = 1;
-        while (top > 0) {
-            --top;
-            const float2 iv = stack[top];
-            const uchar dep = depth[top];
-            ++work->nodes;
-            float2 b[REV_MAX_DEGREE + 1];
-            bezier_sub(p, n, iv.x, iv.y, b);
-            float4 box = (float4)(b[0].x, b[0].x, b[0].y, b[0].y);
-            for (uint i = 1u; i <= n; ++i) {
-                box = (float4)(fmin(box.x, b[i].x), fmax(box.y, b[i].x), fmin(box.z, b[i].y),
-                               fmax(box.w, b[i].y));
-            }
-            if (!annulus_reachable(box, o, d, 0.0f, t_best)) {
-                continue;
-            }
-            float f0, f1;
-            const int roots = rev_classify(&ray, b, n, &f0, &f1);
-            if (roots == REV_NONE) {
-                continue;
-            }
-            float th, uh;
-            if (roots == REV_ONE) {
-                if (rev_solve_one(p, n, &ray, iv.x, iv.y, f0, f1, t_best, &th, &uh, work)) {
-                    t_best = th;
-                    *seg = k;
-                    *u_hit = uh;
-                }
-                continue;
-            }
-            const bool tiny = fmax(box.y - box.x, box.w - box.z) <= ray.leaf_size;
-            if (dep >= REV_MAX_DEPTH || tiny) {
-                if (rev_solve_chord(p, n, &ray, b, iv.x, iv.y, t_best, &th, &uh, work)) {
-                    t_best = th;
-                    *seg = k;
-                    *u_hit = uh;
-                } else if (tiny) {
-                    /* A sub-curve within rounding of a point (where the profile's speed
-                     * vanishes, a chord is no model of it) that F cannot tell from the ray:
-                     * where the ray enters its box's ring, grown by the box's rounding, it is
-                     * within a few roundings of the surface. */
-                    const float t = annulus_entry(&ray, box, ray.leaf_size, 0.0f, t_best);
-                    if (t < t_best) {
-                        t_best = t;
-                        *seg = k;
-                        *u_hit = 0.5f * (iv.x + iv.y);
-                    }
-                }
-                continue;
-            }
-            const float um = 0.5f * (iv.x + iv.y);
-            stack[top] = (float2)(um, iv.y);
-            depth[top] = dep + 1;
-            ++top;
-            stack[top] = (float2)(iv.x, um);
-            depth[top] = dep + 1;
-            ++top;
+#if CLPT_REV_HULLS
+        /* The segment's hull (RevSurface, types.h), stored: where the ray cannot reach it
+         * revolved before its nearest hit so far, the segment's setup and first step are
+         * spared (BENCHMARKS.md, "The goblet's share of case3, and its segment hulls";
+         * CPUs only, features.h). */
+        if (!annulus_reachable(vload4(k, (__global const float*)(points + rs->first_hull)), o,
+                               d, 0.0f, t_best)) {
+            continue;
         }
+#endif
+        rev_segment_intersect(points + rs->first_point, n, k, &ray, &t_best, seg, u_hit, work);
     }
     return t_best < t_max ? t_start + t_best : t_limit;
 }

@@ -198,9 +198,12 @@ CLPT_ASSERT_SIZE(MeshInstance, 12);
 /* A surface of revolution (revsurface.cuh): its profile as Bezier segments of one degree,
  * degree+1 (x, y) control points each, in the scene's float2 point array. The host centres the
  * profile's heights on 0 and moves the surface back by its transform, so the solver's tolerances
- * are relative to the profile's own size (revsurface.h). */
+ * are relative to the profile's own size (revsurface.h). After the points, from `first_hull`,
+ * each segment's hull: the box of its control points as two float2, (x_lo, x_hi) and (y_lo,
+ * y_hi) (src/shapes/revsurface.rs, `segment_hulls`). */
 typedef struct RevSurface {
     uint first_point;
+    uint first_hull;
     uint num_segments;
     uint degree;
     uint material;
@@ -209,7 +212,7 @@ typedef struct RevSurface {
     float y_lo;            /* their least and greatest y: the hull's box */
     float y_hi;
 } RevSurface;
-CLPT_ASSERT_SIZE(RevSurface, 32);
+CLPT_ASSERT_SIZE(RevSurface, 36);
 
 /* The kinds of object, one list for what a ray hit (Hit.kind, scene.h), what a BVH leaf holds
  * (ObjectRef) and what a light-list entry is (Light): each names an object by its kind and its

@@ -193,9 +193,12 @@ shared! {
     /// A surface of revolution (revsurface.cuh): its profile as Bezier segments of one degree,
     /// degree+1 (x, y) control points each, in the scene's float2 point array. The host centres
     /// the profile's heights on 0 and moves the surface back by its transform, so the solver's
-    /// tolerances are relative to the profile's own size (revsurface.h).
+    /// tolerances are relative to the profile's own size (revsurface.h). After the points, from
+    /// `first_hull`, each segment's hull: the box of its control points as two float2,
+    /// (x_lo, x_hi) and (y_lo, y_hi) (src/shapes/revsurface.rs, `segment_hulls`).
     pub struct RevSurface {
         pub first_point: u32,
+        pub first_hull: u32,
         pub num_segments: u32,
         pub degree: u32,
         pub material: u32,

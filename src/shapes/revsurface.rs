@@ -65,8 +65,11 @@ impl HostShape for RevSurfaceShape {
             (0.0f32, f32::INFINITY, f32::NEG_INFINITY),
             |(r, lo, hi), p| (r.max(p[0].abs()), lo.min(p[1]), hi.max(p[1])),
         );
+        let first_point = packed.rev_points.len();
+        let hulls = segment_hulls(&stored, self.curve.degree() + 1);
         let revsurface = RevSurface {
-            first_point: packed.rev_points.len() as u32,
+            first_point: first_point as u32,
+            first_hull: (first_point + stored.len()) as u32,
             num_segments: segments.len() as u32,
             degree: self.curve.degree() as u32,
             material: object.material,
@@ -76,6 +79,7 @@ impl HostShape for RevSurfaceShape {
             y_hi,
         };
         packed.rev_points.extend(stored);
+        packed.rev_points.extend(hulls);
         packed.revsurfaces.push(revsurface);
         Ok(packed.revsurfaces.len() - 1)
     }
@@ -92,5 +96,38 @@ impl HostShape for RevSurfaceShape {
         let first = r.first_point as usize;
         let count = r.num_segments as usize * (r.degree as usize + 1);
         all_finite(packed.rev_points[first..first + count].iter().flatten())
+    }
+}
+
+/// Each segment's hull, the box of its `per_segment` control points (`points`, as stored), as
+/// two float2: (x_lo, x_hi) and (y_lo, y_hi). A CPU's program tests a ray against a segment's
+/// hull revolved before it sets up the segment's root isolation, whose first step would test
+/// the same box (kernels/revsurface.h, `CLPT_REV_HULLS`).
+fn segment_hulls(points: &[[f32; 2]], per_segment: usize) -> Vec<[f32; 2]> {
+    points
+        .chunks_exact(per_segment)
+        .flat_map(|segment| {
+            let hull = |axis: usize| {
+                segment.iter().fold([f32::INFINITY, f32::NEG_INFINITY], |[lo, hi], p| {
+                    [lo.min(p[axis]), hi.max(p[axis])]
+                })
+            };
+            [hull(0), hull(1)]
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::segment_hulls;
+
+    #[test]
+    fn each_segment_hull_is_its_control_points_box() {
+        // Two quadratic segments sharing a point.
+        let points = [[0.0, -1.0], [2.0, 0.5], [1.0, 1.0], [1.0, 1.0], [-0.5, 3.0], [0.25, 2.0]];
+        assert_eq!(
+            segment_hulls(&points, 3),
+            vec![[0.0, 2.0], [-1.0, 1.0], [-0.5, 1.0], [1.0, 3.0]]
+        );
     }
 }
