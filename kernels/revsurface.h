@@ -544,8 +544,9 @@ inline float annulus_entry(const RevRay* r, float4 box, float pad, float t_lo, f
  * control points), the ray's terms from ray_in (rev_ray; the segment's own are set on a
  * copy): its parameter range halved depth first until each part holds no root (discarded),
  * one (solved) or is a chord's size (module doc). Updates *t_best_p, *seg, *u_hit. */
-inline void rev_segment_intersect(__global const float2* points, uint n, uint k, RevRay* ray_in,
-                                  float* t_best_p, uint* seg, float* u_hit, RevWork* work) {
+inline void rev_segment_intersect(__global const float2* points, uint n, uint k,
+                                  const RevRay* ray_in, float* t_best_p, uint* seg, float* u_hit,
+                                  RevWork* work) {
     __global const float2* p = points + k * (n + 1u);
     RevRay ray = *ray_in;
     const float3 o = ray.o, d = ray.d;

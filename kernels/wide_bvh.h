@@ -31,6 +31,15 @@ inline void prefetch_lines(__global const char* p, uint bytes) {
 }
 #endif
 
+/* A leaf child's slots (WIDE_BVH_LEAF | (count - 1) << 28 | first slot, types.h) and count. */
+inline __global const uint* wide_leaf_slots(__global const uint* indices, uint c) {
+    return indices + LEAF_SLOT * (c & 0x0FFFFFFFu);
+}
+
+inline uint wide_leaf_count(uint c) {
+    return ((c >> 28) & 7u) + 1u;
+}
+
 /* At most seven children wait per level of the path from the root, and the host's trees have
  * at most 64 levels (accel/wide_bvh.rs: SAH splits to depth 32, object medians below). */
 #define WIDE_BVH_STACK 448
@@ -50,8 +59,8 @@ inline bool wide_bvh_intersect(__global const MeshDesc* m, __global const WideBv
     bool found = false;
     while (true) {
         if ((node & WIDE_BVH_LEAF) != 0u) {
-            found |= slots_intersect(indices + LEAF_SLOT * (node & 0x0FFFFFFFu),
-                                     ((node >> 28) & 7u) + 1u, vertices, &ray, t, prim, b1, b2);
+            found |= slots_intersect(wide_leaf_slots(indices, node), wide_leaf_count(node),
+                                     vertices, &ray, t, prim, b1, b2);
         } else {
             __global const WideBvhNode* n = nodes + node;
             const float8 ax = (vload8(0, n->lo_x) - o.x) * inv_d.x;
@@ -84,8 +93,8 @@ inline bool wide_bvh_intersect(__global const MeshDesc* m, __global const WideBv
                 if ((c & WIDE_BVH_LEAF) == 0u) {
                     prefetch_lines((__global const char*)(nodes + c), sizeof(WideBvhNode));
                 } else {
-                    prefetch_lines((__global const char*)(indices + LEAF_SLOT * (c & 0x0FFFFFFFu)),
-                                   4u * LEAF_SLOT * (((c >> 28) & 7u) + 1u));
+                    prefetch_lines((__global const char*)wide_leaf_slots(indices, c),
+                                   4u * LEAF_SLOT * wide_leaf_count(c));
                 }
             }
 #endif
