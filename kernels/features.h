@@ -14,9 +14,9 @@
  *                     (one switch a kind of object, named by the host's list of kinds: their
  *                     defaults are written in types.h with the SHAPES(X) list)
  *   CLPT_REV_DEGREE   the one degree of every revolved surface (loops unrolled), 0: mixed
- *   CLPT_REV_HULLS    a revolved surface's segments are each skipped where the ray cannot
- *                     reach their stored hull (revsurface.h): set for CPUs (a GPU's warp pays
- *                     for every segment some lane reaches, and ran slower)
+ *   CLPT_REV_MERGED   a revolved surface's segments walked in one loop (revsurface.h), not
+ *                     one after another in step across a warp. Follows !CLPT_NEE when absent:
+ *                     bounce rays gain from it, a GPU's shadow rays lose
  *   CLPT_BVH          the object BVH (bvh.h); 0: objects are tested kind by kind in a loop
  *   CLPT_WALLS        without the BVH, axis planes tested as walls (plane.h walls_intersect):
  *                     set on CPUs where some axis has a wall on each side, as a room does
@@ -40,9 +40,6 @@
 
 #ifndef CLPT_REV_DEGREE
 #define CLPT_REV_DEGREE 0
-#endif
-#ifndef CLPT_REV_HULLS
-#define CLPT_REV_HULLS 1
 #endif
 #ifndef CLPT_BVH
 #define CLPT_BVH 1
@@ -70,6 +67,9 @@
 #endif
 #ifndef CLPT_WIDE
 #define CLPT_WIDE (CLPT_LANES > 1)
+#endif
+#ifndef CLPT_REV_MERGED
+#define CLPT_REV_MERGED (!CLPT_NEE)
 #endif
 #ifndef CLPT_WIDE_BVH
 #define CLPT_WIDE_BVH CLPT_WIDE

@@ -41,9 +41,12 @@ inline bool kdtree_intersect(__global const MeshDesc* m, __global const KdNode* 
         if (*t < t0) {
             break; /* the nearest hit lies before this node */
         }
-        const KdNode n = nodes[node];
-        const uint axis = n.flags & 3u;
-        if (axis != KD_LEAF) {
+        /* Down to a leaf in a loop of its own, so that a warp's work-items test their leaves
+         * together rather than in turn with others' descents (Aila and Laine's "while-while",
+         * HPG 2009; BENCHMARKS.md, "The kd-tree's descent in a loop of its own"). */
+        KdNode n = nodes[node];
+        uint axis = n.flags & 3u;
+        while (axis != KD_LEAF) {
             const float split = as_float(n.data);
             const float oa = component(o, (int)axis);
             const float da = component(d, (int)axis);
@@ -69,7 +72,8 @@ inline bool kdtree_intersect(__global const MeshDesc* m, __global const KdNode* 
                 node = first;
                 t1 = t_split;
             }
-            continue;
+            n = nodes[node];
+            axis = n.flags & 3u;
         }
         found |= slots_intersect(kd_indices + m->first_index + LEAF_SLOT * n.data, n.flags >> 2,
                                  vertices, &ray, t, prim, b1, b2);

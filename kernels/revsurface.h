@@ -57,7 +57,6 @@
 #define REV_DEGREE(rs) ((rs)->degree)
 #endif
 #define REV_MAX_DEPTH 10
-#define REV_STACK (REV_MAX_DEPTH + 2)
 #define REV_SOLVE_STEPS 40
 #define REV_NEWTON_STEPS 8
 
@@ -540,85 +539,126 @@ inline float annulus_entry(const RevRay* r, float4 box, float pad, float t_lo, f
     return t0 <= t1 ? t0 : t_hi;
 }
 
-/* The nearest hit in (0, *t_best_p) with segment k of the profile (`points`: the segments'
- * control points), the ray's terms from ray_in (rev_ray; the segment's own are set on a
- * copy): its parameter range halved depth first until each part holds no root (discarded),
- * one (solved) or is a chord's size (module doc). Updates *t_best_p, *seg, *u_hit. */
-inline void rev_segment_intersect(__global const float2* points, uint n, uint k,
-                                  const RevRay* ray_in, float* t_best_p, uint* seg, float* u_hit,
-                                  RevWork* work) {
-    __global const float2* p = points + k * (n + 1u);
-    RevRay ray = *ray_in;
-    const float3 o = ray.o, d = ray.d;
-    float t_best = *t_best_p;
-    rev_ray_segment(&ray, p, n);
-    float2 stack[REV_STACK]; /* (u0, u1) */
-    uchar depth[REV_STACK];
-    stack[0] = (float2)(0.0f, 1.0f);
-    depth[0] = 0;
-    int top = 1;
-    while (top > 0) {
-        --top;
-        const float2 iv = stack[top];
-        const uchar dep = depth[top];
-        ++work->nodes;
-        float2 b[REV_MAX_DEGREE + 1];
-        bezier_sub(p, n, iv.x, iv.y, b);
-        float4 box = (float4)(b[0].x, b[0].x, b[0].y, b[0].y);
-        for (uint i = 1u; i <= n; ++i) {
-            box = (float4)(fmin(box.x, b[i].x), fmax(box.y, b[i].x), fmin(box.z, b[i].y),
-                           fmax(box.w, b[i].y));
-        }
-        if (!annulus_reachable(box, o, d, 0.0f, t_best)) {
-            continue;
-        }
-        float f0, f1;
-        const int roots = rev_classify(&ray, b, n, &f0, &f1);
-        if (roots == REV_NONE) {
-            continue;
-        }
-        float th, uh;
-        if (roots == REV_ONE) {
-            if (rev_solve_one(p, n, &ray, iv.x, iv.y, f0, f1, t_best, &th, &uh, work)) {
-                t_best = th;
-                *seg = k;
-                *u_hit = uh;
-            }
-            continue;
-        }
-        const bool tiny = fmax(box.y - box.x, box.w - box.z) <= ray.leaf_size;
-        if (dep >= REV_MAX_DEPTH || tiny) {
-            if (rev_solve_chord(p, n, &ray, b, iv.x, iv.y, t_best, &th, &uh, work)) {
-                t_best = th;
-                *seg = k;
-                *u_hit = uh;
-            } else if (tiny) {
-                /* A sub-curve within rounding of a point (where the profile's speed
-                 * vanishes, a chord is no model of it) that F cannot tell from the ray:
-                 * where the ray enters its box's ring, grown by the box's rounding, it is
-                 * within a few roundings of the surface. */
-                const float t = annulus_entry(&ray, box, ray.leaf_size, 0.0f, t_best);
-                if (t < t_best) {
-                    t_best = t;
-                    *seg = k;
-                    *u_hit = 0.5f * (iv.x + iv.y);
-                }
-            }
-            continue;
-        }
-        const float um = 0.5f * (iv.x + iv.y);
-        stack[top] = (float2)(um, iv.y);
-        depth[top] = dep + 1;
-        ++top;
-        stack[top] = (float2)(iv.x, um);
-        depth[top] = dep + 1;
-        ++top;
+/* One step of a segment's root isolation: the sub-curve of segment p on iv, at halving depth
+ * dep, against the ray (its terms set for the segment, rev_ray_segment). Discards it where the
+ * ray cannot reach it before *t_best or F has no root there, solves it where F has one root or
+ * it is a chord's size (module doc), updating *t_best, *u_hit and *found; true where it is to be
+ * halved. */
+inline bool rev_visit(__global const float2* p, uint n, const RevRay* ray, float2 iv, uchar dep,
+                      float* t_best, float* u_hit, bool* found, RevWork* work) {
+    ++work->nodes;
+    float2 b[REV_MAX_DEGREE + 1];
+    bezier_sub(p, n, iv.x, iv.y, b);
+    float4 box = (float4)(b[0].x, b[0].x, b[0].y, b[0].y);
+    for (uint i = 1u; i <= n; ++i) {
+        box = (float4)(fmin(box.x, b[i].x), fmax(box.y, b[i].x), fmin(box.z, b[i].y),
+                       fmax(box.w, b[i].y));
     }
-    *t_best_p = t_best;
+    if (!annulus_reachable(box, ray->o, ray->d, 0.0f, *t_best)) {
+        return false;
+    }
+    float f0, f1;
+    const int roots = rev_classify(ray, b, n, &f0, &f1);
+    if (roots == REV_NONE) {
+        return false;
+    }
+    float th, uh;
+    if (roots == REV_ONE) {
+        if (rev_solve_one(p, n, ray, iv.x, iv.y, f0, f1, *t_best, &th, &uh, work)) {
+            *t_best = th;
+            *u_hit = uh;
+            *found = true;
+        }
+        return false;
+    }
+    const bool tiny = fmax(box.y - box.x, box.w - box.z) <= ray->leaf_size;
+    if (dep < REV_MAX_DEPTH && !tiny) {
+        return true;
+    }
+    if (rev_solve_chord(p, n, ray, b, iv.x, iv.y, *t_best, &th, &uh, work)) {
+        *t_best = th;
+        *u_hit = uh;
+        *found = true;
+    } else if (tiny) {
+        /* A sub-curve within rounding of a point (where the profile's speed vanishes, a
+         * chord is no model of it) that F cannot tell from the ray: where the ray enters its
+         * box's ring, grown by the box's rounding, it is within a few roundings of the
+         * surface. */
+        const float t = annulus_entry(ray, box, ray->leaf_size, 0.0f, *t_best);
+        if (t < *t_best) {
+            *t_best = t;
+            *u_hit = 0.5f * (iv.x + iv.y);
+            *found = true;
+        }
+    }
+    return false;
+}
+
+/* The sub-curves of one segment waiting to be visited, depth first: (u0, u1) and depth. */
+#define REV_STACK (REV_MAX_DEPTH + 2)
+typedef struct RevWalk {
+    float2 iv[REV_STACK];
+    uchar depth[REV_STACK];
+    int top;
+} RevWalk;
+
+/* Whether the ray (o + t d, t in (0, t_hi)) can reach segment k's stored hull revolved
+ * (RevSurface.first_hull, types.h): where it cannot, the segment's setup and first step are
+ * spared (BENCHMARKS.md, "The goblet's share of case3, and its segment hulls"). The hull is
+ * the box of the segment's control points, which the first step tests again as its own. */
+inline bool rev_hull_reachable(__global const RevSurface* rs, __global const float2* points,
+                               uint k, const RevRay* ray, float t_hi) {
+    return annulus_reachable(vload4(k, (__global const float*)(points + rs->first_hull)),
+                             ray->o, ray->d, 0.0f, t_hi);
+}
+
+/* Segment k begun: the ray's terms for it, its whole parameter range waiting. Its points. */
+inline __global const float2* rev_begin(__global const RevSurface* rs,
+                                        __global const float2* points, uint n, uint k,
+                                        RevRay* ray, RevWalk* walk) {
+    __global const float2* p = points + rs->first_point + k * (n + 1u);
+    rev_ray_segment(ray, p, n);
+    walk->iv[0] = (float2)(0.0f, 1.0f);
+    walk->depth[0] = 0;
+    walk->top = 1;
+    return p;
+}
+
+/* One sub-curve taken from the walk and visited (rev_visit), its halves put back where it is
+ * halved; true where it gave the nearest hit so far. */
+inline bool rev_step(__global const float2* p, uint n, const RevRay* ray, RevWalk* walk,
+                     float* t_best, float* u_hit, RevWork* work) {
+    const int top = walk->top - 1;
+    const float2 iv = walk->iv[top];
+    const uchar dep = walk->depth[top];
+    bool found = false;
+    if (rev_visit(p, n, ray, iv, dep, t_best, u_hit, &found, work)) {
+        const float um = 0.5f * (iv.x + iv.y);
+        walk->iv[top] = (float2)(um, iv.y);
+        walk->iv[top + 1] = (float2)(iv.x, um);
+        walk->depth[top] = walk->depth[top + 1] = dep + 1;
+        walk->top = top + 2;
+    } else {
+        walk->top = top;
+    }
+    return found;
 }
 
 /* The nearest hit in (0, t_max) of o + t d (d unit) with the surface: t, or t_max if none;
- * *seg and *u_hit say where on the profile, *work counts what it took. */
+ * *seg and *u_hit say where on the profile, *work counts what it took.
+ *
+ * The segments are taken in order, each one's that the ray can reach (rev_hull_reachable)
+ * walked depth first to its end before the next is begun; two forms of the loop give the
+ * same hits (CLPT_REV_MERGED, features.h):
+ * - merged, one loop over every segment's sub-curves: a work-item done with a segment begins
+ *   its next while others of its warp still halve theirs, so that a warp pays for the most
+ *   sub-curves any of its work-items visits, not for the sum over segments of each segment's
+ *   most (the loop merging of Aila and Laine, "Understanding the efficiency of ray traversal
+ *   on GPUs", HPG 2009): bounce rays, unlike across a warp, each reach few segments, and
+ *   rarely the same;
+ * - segment by segment, a warp's work-items in step: shadow rays towards one light, alike
+ *   across a warp, reach the same segments, and lose to the merged loop's bookkeeping.
+ * BENCHMARKS.md, "The goblet's segments in one loop", has the figures. */
 inline float revsurface_intersect(__global const RevSurface* rs, __global const float2* points,
                                   float3 o, float3 d, float t_max, uint* seg, float* u_hit,
                                   RevWork* work) {
@@ -642,19 +682,39 @@ inline float revsurface_intersect(__global const RevSurface* rs, __global const 
     t_max -= t_start;
     RevRay ray = rev_ray(o, d);
     float t_best = t_max;
+    RevWalk walk;
+#if CLPT_REV_MERGED
+    walk.top = 0;
+    __global const float2* p = points;
+    for (uint k = 0u, next = 0u;;) {
+        if (walk.top == 0) {
+            while (next < rs->num_segments &&
+                   !rev_hull_reachable(rs, points, next, &ray, t_best)) {
+                ++next;
+            }
+            if (next >= rs->num_segments) {
+                break;
+            }
+            k = next++;
+            p = rev_begin(rs, points, n, k, &ray, &walk);
+        }
+        if (rev_step(p, n, &ray, &walk, &t_best, u_hit, work)) {
+            *seg = k;
+        }
+    }
+#else
     for (uint k = 0u; k < rs->num_segments; ++k) {
-#if CLPT_REV_HULLS
-        /* The segment's hull (RevSurface, types.h), stored: where the ray cannot reach it
-         * revolved before its nearest hit so far, the segment's setup and first step are
-         * spared (BENCHMARKS.md, "The goblet's share of case3, and its segment hulls";
-         * CPUs only, features.h). */
-        if (!annulus_reachable(vload4(k, (__global const float*)(points + rs->first_hull)), o,
-                               d, 0.0f, t_best)) {
+        if (!rev_hull_reachable(rs, points, k, &ray, t_best)) {
             continue;
         }
-#endif
-        rev_segment_intersect(points + rs->first_point, n, k, &ray, &t_best, seg, u_hit, work);
+        __global const float2* p = rev_begin(rs, points, n, k, &ray, &walk);
+        while (walk.top > 0) {
+            if (rev_step(p, n, &ray, &walk, &t_best, u_hit, work)) {
+                *seg = k;
+            }
+        }
     }
+#endif
     return t_best < t_max ? t_start + t_best : t_limit;
 }
 

@@ -59,10 +59,6 @@ pub struct Features {
     /// (PoCL's clang) take the hint; NVIDIA's refuses it on global pointers. `of` leaves it
     /// off.
     pub prefetch: bool,
-    /// A revolved surface's segments are tested against their stored hulls before their root
-    /// isolation is set up (kernels/revsurface.h, `CLPT_REV_HULLS`): set by the renderer for
-    /// CPU devices ([`Features::rev_hulls_on`]); `of` leaves it off.
-    pub rev_hulls: bool,
     /// Paths a work-item carries (kernels/lanes.h): above 1 on a CPU device where the program
     /// has only what the wide kernels are written for ([`Features::wide_lanes`]); `of` leaves
     /// it at 1.
@@ -125,7 +121,6 @@ impl Features {
             regenerate: false,
             wide_bvh: false,
             prefetch: false,
-            rev_hulls: false,
             lanes: 1,
         }
     }
@@ -177,15 +172,6 @@ impl Features {
         !device.is_gpu
     }
 
-    /// Whether `device`'s programs test revolved segments' hulls first ([`Features::rev_hulls`]):
-    /// a CPU's, where the original's case3 rendered 7 to 9% faster; on an H100 it took up to 9%
-    /// more time without light sampling (the defaults there) and 5 to 9% less with it, a warp
-    /// paying for every segment some lane reaches (BENCHMARKS.md, "The goblet's share of
-    /// case3, and its segment hulls").
-    pub fn rev_hulls_on(device: &crate::device::DeviceDescription) -> bool {
-        !device.is_gpu
-    }
-
     /// The lanes a work-item of this program carries on `device` (kernels/lanes.h,
     /// docs/cpu-lanes.md): on a CPU, `requested` (`--lanes`) or else the device's native float
     /// vector width (8 with AVX2, 16 with AVX-512), where the program has only what the wide
@@ -227,7 +213,6 @@ impl Features {
             .map(|k| (k.switch, flag(self.has(k.id))));
         let rest = [
             ("CLPT_REV_DEGREE", self.rev_degree.to_string()),
-            ("CLPT_REV_HULLS", flag(self.rev_hulls)),
             ("CLPT_BVH", flag(self.bvh)),
             ("CLPT_WALLS", flag(self.walls)),
             ("CLPT_TRANSFORMS", flag(self.transforms)),

@@ -788,7 +788,6 @@ impl<'d> Renderer<'d> {
             features.lanes = lanes;
             features.wide_bvh = wide_bvh;
             features.prefetch = Features::prefetch_on(&device.description);
-            features.rev_hulls = Features::rev_hulls_on(&device.description);
             features.walls |= features.walls_on(&params.walls, &device.description);
             let program = program::build_entry(
                 device,

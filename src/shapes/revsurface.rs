@@ -100,9 +100,9 @@ impl HostShape for RevSurfaceShape {
 }
 
 /// Each segment's hull, the box of its `per_segment` control points (`points`, as stored), as
-/// two float2: (x_lo, x_hi) and (y_lo, y_hi). A CPU's program tests a ray against a segment's
-/// hull revolved before it sets up the segment's root isolation, whose first step would test
-/// the same box (kernels/revsurface.h, `CLPT_REV_HULLS`).
+/// two float2: (x_lo, x_hi) and (y_lo, y_hi). The programs test a ray against a segment's
+/// hull revolved before they set up the segment's root isolation, whose first step would test
+/// the same box (kernels/revsurface.h, `rev_hull_reachable`).
 fn segment_hulls(points: &[[f32; 2]], per_segment: usize) -> Vec<[f32; 2]> {
     points
         .chunks_exact(per_segment)
