@@ -109,9 +109,17 @@ fn distance_to_surface(curve: &Curve, p: DVec3) -> f64 {
     dist(0.5 * (lo + hi))
 }
 
+/// Each ray's hits against the f64 reference (below), on the probes as built: their programs
+/// have light sampling (features.h), whose revolved surfaces walk their segments one after
+/// another in step. The loop that programs without light sampling run
+/// (`CLPT_REV_MERGED`, kernels/revsurface.h) visits each ray's segments and sub-curves in the
+/// same order, and must give the same bits for every ray.
 #[test]
 fn device_hits_match_the_f64_reference() {
     let device = common::device();
+    let merged =
+        common::build_without_warnings(&device, "probes.cl", &[("CLPT_REV_MERGED", "1".into())]);
+    let mut merged_differ = 0usize;
     let mut rng = SmallRng::seed_from_u64(51);
     let mut results = Vec::new();
     for (name, curve) in profiles() {
@@ -165,6 +173,12 @@ fn device_hits_match_the_f64_reference() {
                 })
                 .collect();
             let got = common::probe_hits(&device, &packed, &rays);
+            let bits = |h: &[f32; 16]| h.map(f32::to_bits);
+            merged_differ += common::probe_hits_on(&merged, &device, &packed, &rays)
+                .iter()
+                .zip(&got)
+                .filter(|(m, g)| bits(m) != bits(g))
+                .count();
             // Each device answer against the f64 reference, spread over the cores (the
             // reference's root isolation was most of the test's time): (compared, missed,
             // false hits, self-hits) of one ray.
@@ -239,6 +253,10 @@ fn device_hits_match_the_f64_reference() {
         assert!(compared > 100_000, "{name}: only {compared} hits");
         results.push((name, missed, false_hits, self_hits));
     }
+    assert_eq!(
+        merged_differ, 0,
+        "rays whose hits the merged segment loop (CLPT_REV_MERGED) answers otherwise"
+    );
     for (name, missed, false_hits, self_hits) in results {
         assert_eq!(false_hits, 0, "{name}: false hits");
         assert_eq!(missed, 0, "{name}: missed hits");

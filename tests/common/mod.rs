@@ -341,7 +341,18 @@ pub fn probe_hits_wide_bvh(
     rays: &[[f32; 9]],
 ) -> Vec<[f32; 16]> {
     let program = build_without_warnings(device, "probes.cl", &[("CLPT_WIDE_BVH", "1".into())]);
-    probe_hits_with(&program, device, scene, rays, 1)
+    probe_hits_on(&program, device, scene, rays)
+}
+
+/// As [`probe_hits`], on `program`: the one-lane probes built with other switches
+/// ([`build_without_warnings`]).
+pub fn probe_hits_on(
+    program: &ocl::Program,
+    device: &Device,
+    scene: &PackedScene,
+    rays: &[[f32; 9]],
+) -> Vec<[f32; 16]> {
+    probe_hits_with(program, device, scene, rays, 1)
 }
 
 fn probe_hits_with(
