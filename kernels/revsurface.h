@@ -539,11 +539,11 @@ inline float annulus_entry(const RevRay* r, float4 box, float pad, float t_lo, f
     return t0 <= t1 ? t0 : t_hi;
 }
 
-/* One step of a segment's root isolation: the sub-curve of segment p on iv, at halving depth
- * dep, against the ray (its terms set for the segment, rev_ray_segment). Discards it where the
- * ray cannot reach it before *t_best or F has no root there, solves it where F has one root or
- * it is a chord's size (module doc), updating *t_best, *u_hit and *found; true where it is to be
- * halved. */
+/* One step of a segment's root isolation: the sub-curve on [iv.x, iv.y] of the segment whose
+ * control points are p, at halving depth dep, against the ray (its terms set for the segment,
+ * rev_ray_segment). Discards it where the ray cannot reach it before *t_best or F has no root
+ * there, solves it where F has one root or it is a chord's size (module doc), updating
+ * *t_best, *u_hit and *found; true where it is to be halved. */
 inline bool rev_visit(__global const float2* p, uint n, const RevRay* ray, float2 iv, uchar dep,
                       float* t_best, float* u_hit, bool* found, RevWork* work) {
     ++work->nodes;
