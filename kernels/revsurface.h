@@ -137,15 +137,13 @@ inline RevRay rev_ray(float3 o, float3 d) {
     return r;
 }
 
-/* The rounding bounds for a segment whose control points are at most x_max, y_max in size.
+/* The rounding bounds for a segment whose control points are at most x_max, y_max in size,
+ * which its stored hull (x_lo, x_hi, y_lo, y_hi) gives.
  * Sub-curve points carry at most 2n roundings of that size (two splits of n levels, each a
  * convex combination): 1e-6 of it covers degree 7. m carries two roundings of its terms. */
-inline void rev_ray_segment(RevRay* r, __global const float2* p, uint n) {
-    float x_max = 0.0f, y_max = 0.0f;
-    for (uint i = 0u; i <= n; ++i) {
-        x_max = fmax(x_max, fabs(p[i].x));
-        y_max = fmax(y_max, fabs(p[i].y));
-    }
+inline void rev_ray_segment(RevRay* r, float4 hull) {
+    const float x_max = fmax(fabs(hull.x), fabs(hull.y));
+    const float y_max = fmax(fabs(hull.z), fabs(hull.w));
     const float3 o = r->o, d = r->d;
     const float dxz_l1 = fabs(d.x) + fabs(d.z);
     r->p_err = 0x1.0p-22f * (fabs(d.y) * (fabs(o.x) + fabs(o.z)) + fabs(o.y) * dxz_l1) +
@@ -602,14 +600,44 @@ typedef struct RevWalk {
     int top;
 } RevWalk;
 
+/* Stored hull number i (RevSurface.first_hull, types.h) as (x_lo, x_hi, y_lo, y_hi). */
+inline float4 rev_hull(__global const RevSurface* rs, __global const float2* points, uint i) {
+    return vload4(i, (__global const float*)(points + rs->first_hull));
+}
+
 /* Whether the ray (o + t d, t in (0, t_hi)) can reach segment k's stored hull revolved
  * (RevSurface.first_hull, types.h): where it cannot, the segment's setup and first step are
  * spared (BENCHMARKS.md, "The goblet's share of case3, and its segment hulls"). The hull is
  * the box of the segment's control points, which the first step tests again as its own. */
 inline bool rev_hull_reachable(__global const RevSurface* rs, __global const float2* points,
                                uint k, const RevRay* ray, float t_hi) {
-    return annulus_reachable(vload4(k, (__global const float*)(points + rs->first_hull)),
-                             ray->o, ray->d, 0.0f, t_hi);
+    return annulus_reachable(rev_hull(rs, points, k), ray->o, ray->d, 0.0f, t_hi);
+}
+
+/* Whether the ray can reach the hull of the group of REV_GROUP segments that segment k (a
+ * multiple of REV_GROUP) begins (stored after the segments' hulls, types.h): where it cannot,
+ * none of their hulls is tested. The group's hull holds theirs, so no segment that
+ * rev_hull_reachable would pass is skipped, and the segments walked are the same. */
+inline bool rev_group_reachable(__global const RevSurface* rs, __global const float2* points,
+                                uint k, const RevRay* ray, float t_hi) {
+    return annulus_reachable(rev_hull(rs, points, rs->num_segments + k / REV_GROUP), ray->o,
+                             ray->d, 0.0f, t_hi);
+}
+
+/* The first segment from `next` on whose hull (and group's hull) the ray can reach, or
+ * num_segments where none is left. */
+inline uint rev_next_reachable(__global const RevSurface* rs, __global const float2* points,
+                               uint next, const RevRay* ray, float t_hi) {
+    while (next < rs->num_segments) {
+        if (next % REV_GROUP == 0u && !rev_group_reachable(rs, points, next, ray, t_hi)) {
+            next += REV_GROUP;
+        } else if (rev_hull_reachable(rs, points, next, ray, t_hi)) {
+            return next;
+        } else {
+            ++next;
+        }
+    }
+    return rs->num_segments;
 }
 
 /* Segment k begun: the ray's terms for it, its whole parameter range waiting. Its points. */
@@ -617,7 +645,7 @@ inline __global const float2* rev_begin(__global const RevSurface* rs,
                                         __global const float2* points, uint n, uint k,
                                         RevRay* ray, RevWalk* walk) {
     __global const float2* p = points + rs->first_point + k * (n + 1u);
-    rev_ray_segment(ray, p, n);
+    rev_ray_segment(ray, rev_hull(rs, points, k));
     walk->iv[0] = (float2)(0.0f, 1.0f);
     walk->depth[0] = 0;
     walk->top = 1;
@@ -647,7 +675,7 @@ inline bool rev_step(__global const float2* p, uint n, const RevRay* ray, RevWal
 /* The nearest hit in (0, t_max) of o + t d (d unit) with the surface: t, or t_max if none;
  * *seg and *u_hit say where on the profile, *work counts what it took.
  *
- * The segments are taken in order, each one's that the ray can reach (rev_hull_reachable)
+ * The segments are taken in order, each one's that the ray can reach (rev_next_reachable)
  * walked depth first to its end before the next is begun; two forms of the loop give the
  * same hits (CLPT_REV_MERGED, features.h):
  * - merged, one loop over every segment's sub-curves: a work-item done with a segment begins
@@ -688,14 +716,11 @@ inline float revsurface_intersect(__global const RevSurface* rs, __global const 
     __global const float2* p = points;
     for (uint k = 0u, next = 0u;;) {
         if (walk.top == 0) {
-            while (next < rs->num_segments &&
-                   !rev_hull_reachable(rs, points, next, &ray, t_best)) {
-                ++next;
-            }
-            if (next >= rs->num_segments) {
+            k = rev_next_reachable(rs, points, next, &ray, t_best);
+            if (k >= rs->num_segments) {
                 break;
             }
-            k = next++;
+            next = k + 1u;
             p = rev_begin(rs, points, n, k, &ray, &walk);
         }
         if (rev_step(p, n, &ray, &walk, &t_best, u_hit, work)) {
@@ -703,10 +728,8 @@ inline float revsurface_intersect(__global const RevSurface* rs, __global const 
         }
     }
 #else
-    for (uint k = 0u; k < rs->num_segments; ++k) {
-        if (!rev_hull_reachable(rs, points, k, &ray, t_best)) {
-            continue;
-        }
+    for (uint k = rev_next_reachable(rs, points, 0u, &ray, t_best); k < rs->num_segments;
+         k = rev_next_reachable(rs, points, k + 1u, &ray, t_best)) {
         __global const float2* p = rev_begin(rs, points, n, k, &ray, &walk);
         while (walk.top > 0) {
             if (rev_step(p, n, &ray, &walk, &t_best, u_hit, work)) {

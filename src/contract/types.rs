@@ -190,12 +190,19 @@ shared! {
         pub material: u32,
     }
 
+    /// Segments a group hull of a surface of revolution bounds (RevSurface): a ray that cannot
+    /// reach a group's hull skips its segments' own hulls (revsurface.h).
+    pub const REV_GROUP: u32 = 4;
+
     /// A surface of revolution (revsurface.cuh): its profile as Bezier segments of one degree,
     /// degree+1 (x, y) control points each, in the scene's float2 point array. The host centres
     /// the profile's heights on 0 and moves the surface back by its transform, so the solver's
     /// tolerances are relative to the profile's own size (revsurface.h). After the points, from
     /// `first_hull`, each segment's hull: the box of its control points as two float2,
-    /// (x_lo, x_hi) and (y_lo, y_hi) (src/shapes/revsurface.rs, `segment_hulls`).
+    /// (x_lo, x_hi) and (y_lo, y_hi) (src/shapes/revsurface.rs, `segment_hulls`); after
+    /// those, at `first_hull + 2 num_segments`, each group's hull in the same form: the union
+    /// of REV_GROUP consecutive segments' hulls, the last group's of those left
+    /// (`group_hulls`).
     pub struct RevSurface {
         pub first_point: u32,
         pub first_hull: u32,

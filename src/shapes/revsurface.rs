@@ -67,6 +67,7 @@ impl HostShape for RevSurfaceShape {
         );
         let first_point = packed.rev_points.len();
         let hulls = segment_hulls(&stored, self.curve.degree() + 1);
+        let groups = group_hulls(&hulls, contract::REV_GROUP as usize);
         let revsurface = RevSurface {
             first_point: first_point as u32,
             first_hull: (first_point + stored.len()) as u32,
@@ -80,6 +81,7 @@ impl HostShape for RevSurfaceShape {
         };
         packed.rev_points.extend(stored);
         packed.rev_points.extend(hulls);
+        packed.rev_points.extend(groups);
         packed.revsurfaces.push(revsurface);
         Ok(packed.revsurfaces.len() - 1)
     }
@@ -117,9 +119,30 @@ fn segment_hulls(points: &[[f32; 2]], per_segment: usize) -> Vec<[f32; 2]> {
         .collect()
 }
 
+/// The hulls of groups of `per_group` consecutive segments (the last group's of those left),
+/// each the union of its segments' `hulls` in their form. The programs test a group's hull
+/// before its segments' (kernels/revsurface.h, `rev_group_reachable`): a ray that misses it
+/// is spared their tests. The union's revolved solid holds each member's, so a group's test
+/// passes wherever one of its segments' would.
+fn group_hulls(hulls: &[[f32; 2]], per_group: usize) -> Vec<[f32; 2]> {
+    hulls
+        .chunks(2 * per_group)
+        .flat_map(|group| {
+            let union = |axis: usize| {
+                group
+                    .chunks_exact(2)
+                    .fold([f32::INFINITY, f32::NEG_INFINITY], |[lo, hi], h| {
+                        [lo.min(h[axis][0]), hi.max(h[axis][1])]
+                    })
+            };
+            [union(0), union(1)]
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
-    use super::segment_hulls;
+    use super::{group_hulls, segment_hulls};
 
     #[test]
     fn each_segment_hull_is_its_control_points_box() {
@@ -128,6 +151,23 @@ mod tests {
         assert_eq!(
             segment_hulls(&points, 3),
             vec![[0.0, 2.0], [-1.0, 1.0], [-0.5, 1.0], [1.0, 3.0]]
+        );
+    }
+
+    #[test]
+    fn each_group_hull_is_its_segments_hulls_union() {
+        // Five segments' hulls in groups of two: the last group holds one.
+        let hulls = [
+            [[0.0, 1.0], [0.0, 1.0]],
+            [[0.5, 3.0], [-2.0, 0.5]],
+            [[-1.0, 0.0], [4.0, 5.0]],
+            [[1.0, 2.0], [3.0, 6.0]],
+            [[7.0, 8.0], [-9.0, -8.0]],
+        ];
+        let flat: Vec<[f32; 2]> = hulls.iter().flatten().copied().collect();
+        assert_eq!(
+            group_hulls(&flat, 2),
+            vec![[0.0, 3.0], [-2.0, 1.0], [-1.0, 2.0], [3.0, 6.0], [7.0, 8.0], [-9.0, -8.0]]
         );
     }
 }
