@@ -29,8 +29,11 @@
  *   CLPT_LANES        the lanes a work-item carries (lanes.h): 1, or 4, 8 or 16 with CLPT_WIDE
  *   CLPT_WIDE         work-items of CLPT_LANES > 1 lanes (lanes.h); 0: plain scalars. Unlike
  *                     the others, it follows CLPT_LANES when absent (the probes of each width)
- *   CLPT_WIDE_BVH     meshes walk 8-wide BVHs (wide_bvh.h); 0: kd-trees (kdtree.h). Follows
- *                     CLPT_WIDE when absent; a wide program needs it
+ *   CLPT_WIDE_BVH     meshes walk 8-wide BVHs (wide_bvh.h); 0: kd-trees (kdtree.h) or, with
+ *                     CLPT_BVH2, binary BVHs. Follows CLPT_WIDE when absent; a wide program
+ *                     needs it
+ *   CLPT_BVH2         meshes walk binary BVHs (bvh2.h), where CLPT_WIDE_BVH is 0: set for
+ *                     GPUs
  *   CLPT_PREFETCH     the wide BVH asks for its children's nodes and slots ahead with clang's
  *                     __builtin_prefetch (wide_bvh.h): set for CPUs (NVIDIA's compiler
  *                     refuses it on global pointers)
@@ -73,6 +76,9 @@
 #endif
 #ifndef CLPT_WIDE_BVH
 #define CLPT_WIDE_BVH CLPT_WIDE
+#endif
+#ifndef CLPT_BVH2
+#define CLPT_BVH2 0
 #endif
 #ifndef CLPT_PREFETCH
 #define CLPT_PREFETCH 0

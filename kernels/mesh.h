@@ -1,6 +1,7 @@
 /* mesh.h: triangle meshes as objects of the scene (port of mesh.cuh's mesh intersection): an
- * instance's ray taken to the mesh's space, the walk through its tree (the kd-tree of kdtree.h
- * on GPUs, the 8-wide BVH of wide_bvh.h on CPUs) and the surface at a triangle's hit.
+ * instance's ray taken to the mesh's space, the walk through its tree (the binary BVH of
+ * bvh2.h on GPUs, the 8-wide BVH of wide_bvh.h on CPUs, or the original's kd-tree of kdtree.h)
+ * and the surface at a triangle's hit.
  *
  * Reads: MeshInstance, MeshDesc, the trees, triangles, vertices and normals. Writes: nothing.
  * Why: a mesh is placed by its instance's transform, so one tree serves every instance; the
@@ -12,9 +13,14 @@
 #include "scene.h"
 #include "aabb.h"
 #include "triangle.h"
-#include "kdtree.h"
 #if CLPT_WIDE_BVH
 #include "wide_bvh.h"
+#else
+#if CLPT_BVH2
+#include "bvh2.h"
+#else
+#include "kdtree.h"
+#endif
 #endif
 
 /* The ray (o, d) in the space of mesh instance inst: its inverse transform applied, the
@@ -31,16 +37,21 @@ inline void to_mesh_space(const Scene* sc, __global const MeshInstance* inst, LF
 }
 
 /* Updates hit t, prim, b1, b2 with the nearest hit in (0, *t) of o + t d, in mesh m's space,
- * through its tree: the 8-wide BVH (wide_bvh.h) or the kd-tree (kdtree.h), as CLPT_WIDE_BVH
- * says; whether there was one. */
+ * through its tree: the 8-wide BVH (wide_bvh.h), the binary BVH (bvh2.h) or the kd-tree
+ * (kdtree.h), as CLPT_WIDE_BVH and CLPT_BVH2 say; whether there was one. */
 inline bool mesh_tree_intersect(const Scene* sc, __global const MeshDesc* m, float3 o, float3 d,
                                 float* t, uint* prim, float* b1, float* b2) {
 #if CLPT_WIDE_BVH
     return wide_bvh_intersect(m, (__global const WideBvhNode*)sc->kd_nodes, sc->kd_indices,
                               sc->vertices, o, d, t, prim, b1, b2);
 #else
+#if CLPT_BVH2
+    return bvh2_intersect(m, (__global const Bvh2Node*)sc->kd_nodes, sc->kd_indices,
+                          sc->vertices, o, d, t, prim, b1, b2);
+#else
     return kdtree_intersect(m, sc->kd_nodes, sc->kd_indices, sc->vertices, o, d, t, prim, b1,
                             b2);
+#endif
 #endif
 }
 

@@ -83,6 +83,21 @@ typedef struct WideBvhNode {
 } WideBvhNode;
 CLPT_ASSERT_SIZE(WideBvhNode, 224);
 
+/* A node of a mesh's binary BVH (src/accel/bvh2.rs, bvh2.h), a GPU's mesh tree: both children's
+ * boxes and references, so that one step reads one node and tests both (Aila and Laine 2009). A
+ * child is as in WideBvhNode: another node's index, WIDE_BVH_LEAF | (count - 1) << 28 | first
+ * slot, or WIDE_BVH_EMPTY. 64 bytes with `pad`, so that a node is four aligned float4, which
+ * bvh2.h reads it as. */
+typedef struct Bvh2Node {
+    float lo0[3];
+    float hi0[3];
+    float lo1[3];
+    float hi1[3];
+    uint child[2];
+    uint pad[2];
+} Bvh2Node;
+CLPT_ASSERT_SIZE(Bvh2Node, 64);
+
 /* Marks an object BVH child that is an object: BVH_LEAF | object index. */
 #define BVH_LEAF 0x80000000u
 

@@ -1,5 +1,5 @@
 /* wide_bvh.h: nearest hit of a ray with a mesh through its 8-wide BVH, on a CPU (the job of
- * kdtree.h on a GPU; src/accel/wide_bvh.rs builds the tree, render/mod.rs `MeshTree` chooses).
+ * bvh2.h on a GPU; src/accel/wide_bvh.rs builds the tree, render/mod.rs `MeshTree` chooses).
  *
  * Reads: the mesh's WideBvhNode array (types.h), its leaves' triangle slots (in the kd_indices
  * buffer, triangle.h `slots_intersect`) and vertices. Writes: nothing. The ray is in the

@@ -246,9 +246,9 @@ fn a_cpu_render_without_bounds_says_it_stops_after_12_s() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// `--mesh-tree` takes kd or wide and refuses others before any work; a wide program refuses
-/// the kd-tree (it walks only 8-wide BVHs), and `-v` names the tree a mesh scene's program
-/// walks: wide on a CPU by default, kd on a GPU.
+/// `--mesh-tree` takes kd, bvh2 or wide and refuses others before any work; a wide program
+/// refuses the kd-tree and the binary BVH (it walks only 8-wide BVHs), and `-v` names the tree
+/// a mesh scene's program walks: wide on a CPU by default, bvh2 on a GPU.
 #[test]
 fn mesh_trees_are_checked_and_reported() {
     let dir = scratch("mesh-tree");
@@ -256,7 +256,7 @@ fn mesh_trees_are_checked_and_reported() {
     let run = render(&image, &["--mesh-tree", "bvh"]);
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(!run.status.success(), "--mesh-tree bvh was accepted");
-    assert!(err.contains("use kd or wide"), "{err}");
+    assert!(err.contains("use kd, bvh2 or wide"), "{err}");
     assert!(!image.exists(), "--mesh-tree bvh wrote an image");
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/meshes.txt");
     let out = image.to_str().unwrap();
@@ -278,24 +278,39 @@ fn mesh_trees_are_checked_and_reported() {
     assert!(ok, "{err}");
     let on_cpu = err.contains("(CPU");
     assert_eq!(err.contains("wide-bvh"), on_cpu, "{err}");
+    assert_eq!(err.contains("bvh2"), !on_cpu, "{err}");
     let (ok, err) = at(&["--mesh-tree", "wide", "--lanes", "1"]);
     assert!(
-        ok && err.contains("wide-bvh") && err.contains("-DCLPT_WIDE_BVH=1"),
+        ok && err.contains("wide-bvh")
+            && err.contains("-DCLPT_WIDE_BVH=1")
+            && err.contains("8-wide BVH built"),
+        "{err}"
+    );
+    let (ok, err) = at(&["--mesh-tree", "bvh2", "--lanes", "1"]);
+    assert!(
+        ok && err.contains(" bvh2")
+            && err.contains("-DCLPT_BVH2=1 -DCLPT_WIDE_BVH=0")
+            && err.contains("binary BVH built"),
         "{err}"
     );
     let (ok, err) = at(&["--mesh-tree", "kd", "--lanes", "1"]);
     assert!(
-        ok && !err.contains("wide-bvh") && err.contains("-DCLPT_WIDE_BVH=0"),
+        ok && !err.contains("wide-bvh")
+            && !err.contains(" bvh2")
+            && err.contains("-DCLPT_BVH2=0 -DCLPT_WIDE_BVH=0")
+            && err.contains("kd-tree built"),
         "{err}"
     );
     if on_cpu {
-        std::fs::remove_file(&image).unwrap();
-        let (ok, err) = at(&["--mesh-tree", "kd", "--lanes", "16"]);
-        assert!(
-            !ok && err.contains("--mesh-tree kd takes --lanes 1"),
-            "{err}"
-        );
-        assert!(!image.exists(), "a refused render wrote an image");
+        for tree in ["kd", "bvh2"] {
+            std::fs::remove_file(&image).unwrap_or(());
+            let (ok, err) = at(&["--mesh-tree", tree, "--lanes", "16"]);
+            assert!(
+                !ok && err.contains(&format!("--mesh-tree {tree} takes --lanes 1")),
+                "{err}"
+            );
+            assert!(!image.exists(), "a refused render wrote an image");
+        }
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -8,6 +8,7 @@ mod common;
 
 use clpt::contract::{OBJECT_MESH, OBJECT_PLANE, OBJECT_SPHERE};
 use clpt::pack::PackedScene;
+use clpt::render::MeshTree;
 use clpt::scene::Scene;
 use clpt::scene::mesh::{self, TriangleMesh};
 use common::procedural;
@@ -42,25 +43,33 @@ fn pack(scene: &Scene) -> PackedScene {
     PackedScene::new(scene, u64::MAX).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// The device's hits of `rays` in `scene` by every mesh traversal: kd-trees (a GPU's default),
-/// and 8-wide BVHs (accel/wide_bvh.rs, kernels/wide_bvh.h; a CPU's) in the program of 16 lanes
-/// a work-item and in the one-lane program.
+/// The device's hits of `rays` in `scene` by every mesh traversal: kd-trees (the original's),
+/// binary BVHs (accel/bvh2.rs, kernels/bvh2.h; a GPU's default) and 8-wide BVHs
+/// (accel/wide_bvh.rs, kernels/wide_bvh.h; a CPU's) in the program of 16 lanes a work-item and
+/// in the one-lane program.
 fn probe_every_tree(
     device: &clpt::device::Device,
     scene: &Scene,
     rays: &[[f32; 9]],
-) -> [(&'static str, Vec<[f32; 16]>); 3] {
-    let wide = PackedScene::with_limits(scene, u64::MAX, mesh::DEFAULT_MAX_FILE_BYTES, true)
-        .unwrap_or_else(|e| panic!("{e}"));
+) -> [(&'static str, Vec<[f32; 16]>); 4] {
+    let with = |tree: MeshTree| {
+        PackedScene::with_limits(scene, u64::MAX, mesh::DEFAULT_MAX_FILE_BYTES, tree)
+            .unwrap_or_else(|e| panic!("{e}"))
+    };
+    let (bvh2, wide) = (with(MeshTree::Bvh2), with(MeshTree::Wide));
     [
         ("kd-tree", common::probe_hits(device, &pack(scene), rays)),
+        (
+            "binary BVH",
+            common::probe_hits_mesh_tree(device, &bvh2, rays),
+        ),
         (
             "wide BVH",
             common::probe_hits_in_lanes(device, &wide, rays, 16),
         ),
         (
             "wide BVH, one lane",
-            common::probe_hits_wide_bvh(device, &wide, rays),
+            common::probe_hits_mesh_tree(device, &wide, rays),
         ),
     ]
 }

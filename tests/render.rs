@@ -312,12 +312,13 @@ fn wide_programs_render_the_scalar_image() {
     }
 }
 
-/// Both mesh trees (`--mesh-tree kd|wide`: a GPU's kd-tree, a CPU's 8-wide BVH) find the
-/// same nearest hits, so the one-lane program renders the same image through either, up to a
-/// rare tie between two triangles at one distance (the traversals meet them in other orders):
-/// three transformed meshes (one smooth) through a thin lens, with light sampling and without.
+/// Every mesh tree (`--mesh-tree kd|bvh2|wide`: the original's kd-tree, a GPU's binary BVH, a
+/// CPU's 8-wide BVH) finds the same nearest hits, so the one-lane program renders the same
+/// image through each, up to a rare tie between two triangles at one distance (the traversals
+/// meet them in other orders): three transformed meshes (one smooth) through a thin lens, with
+/// light sampling and without.
 #[test]
-fn both_mesh_trees_render_the_same_image() {
+fn every_mesh_tree_renders_the_same_image() {
     use clpt::render::{MeshTree, Renderer};
     let device = common::device();
     let meshes = small_meshes();
@@ -337,17 +338,17 @@ fn both_mesh_trees_render_the_same_image() {
                 options,
             )
             .unwrap_or_else(|e| panic!("{e}"));
-            assert_eq!(
-                renderer.estimators()[0].features.wide_bvh,
-                tree == MeshTree::Wide
-            );
+            assert_eq!(renderer.estimators()[0].features.mesh_tree, tree);
             renderer
                 .render(&mut |_| {})
                 .unwrap_or_else(|e| panic!("{e}"))
                 .0
         };
-        let (kd, wide) = (at(MeshTree::Kd), at(MeshTree::Wide));
-        assert_far_below_noise(&kd, &wide, &format!("light sampling {light_sampling:?}"));
+        let kd = at(MeshTree::Kd);
+        for tree in [MeshTree::Bvh2, MeshTree::Wide] {
+            let what = format!("{tree:?} against Kd, light sampling {light_sampling:?}");
+            assert_far_below_noise(&kd, &at(tree), &what);
+        }
     }
 }
 

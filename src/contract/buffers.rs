@@ -33,7 +33,8 @@ scene_buffers! {
     transforms: "Transform",
     meshes: "MeshDesc",
     mesh_instances: "MeshInstance",
-    /// Every mesh's tree nodes: `KdNode`s, or `WideBvhNode`s in a wide-BVH program.
+    /// Every mesh's tree nodes: `KdNode`s, or `Bvh2Node`s or `WideBvhNode`s in a program
+    /// whose meshes walk those (`CLPT_BVH2`, `CLPT_WIDE_BVH`).
     kd_nodes: "KdNode",
     /// The mesh trees' leaf slots (`LEAF_SLOT` words each).
     kd_indices: "uint",

@@ -72,6 +72,20 @@ shared! {
         pub child: [u32; 8],
     }
 
+    /// A node of a mesh's binary BVH (src/accel/bvh2.rs, bvh2.h), a GPU's mesh tree: both
+    /// children's boxes and references, so that one step reads one node and tests both (Aila
+    /// and Laine 2009). A child is as in WideBvhNode: another node's index, WIDE_BVH_LEAF |
+    /// (count - 1) << 28 | first slot, or WIDE_BVH_EMPTY. 64 bytes with `pad`, so that a node
+    /// is four aligned float4, which bvh2.h reads it as.
+    pub struct Bvh2Node {
+        pub lo0: [f32; 3],
+        pub hi0: [f32; 3],
+        pub lo1: [f32; 3],
+        pub hi1: [f32; 3],
+        pub child: [u32; 2],
+        pub pad: [u32; 2],
+    }
+
     /// Marks an object BVH child that is an object: BVH_LEAF | object index.
     pub const BVH_LEAF: u32 = 0x8000_0000;
     /// The missing second child of a one-object BVH.
@@ -390,6 +404,7 @@ zeroed_default!(
     TextureMap,
     KdNode,
     WideBvhNode,
+    Bvh2Node,
     BvhNode,
     Camera,
     Material,

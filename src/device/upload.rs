@@ -2,6 +2,7 @@
 //! [`crate::contract::SCENE_BUFFERS`].
 
 use super::Device;
+use crate::accel::MeshTree;
 use crate::contract::RenderParams;
 use crate::error::{Error, Result};
 use crate::pack::PackedScene;
@@ -43,10 +44,10 @@ impl SceneBuffers {
             transforms: upload_slice(device, &packed.transforms)?,
             meshes: upload_slice(device, &packed.meshes)?,
             mesh_instances: upload_slice(device, &packed.mesh_instances)?,
-            kd_nodes: if packed.wide_bvh {
-                upload_slice(device, &packed.wide_nodes)?
-            } else {
-                upload_slice(device, &packed.kd_nodes)?
+            kd_nodes: match packed.mesh_tree {
+                MeshTree::Kd => upload_slice(device, &packed.kd_nodes)?,
+                MeshTree::Bvh2 => upload_slice(device, &packed.bvh2_nodes)?,
+                MeshTree::Wide => upload_slice(device, &packed.wide_nodes)?,
             },
             kd_indices: upload_slice(device, &packed.kd_indices)?,
             triangles: upload_slice(device, &packed.triangles)?,

@@ -24,11 +24,12 @@
 pub mod convert;
 pub mod lights;
 
+use crate::accel::MeshTree;
 use crate::accel::aabb::Aabb;
 use crate::accel::bvh::Bvh;
 use crate::contract::{
-    self, BvhNode, KdNode, Light, Material, MeshDesc, MeshInstance, ObjectRef, Plane, RenderParams,
-    RevSurface, Sphere, Transform, WideBvhNode,
+    self, Bvh2Node, BvhNode, KdNode, Light, Material, MeshDesc, MeshInstance, ObjectRef, Plane,
+    RenderParams, RevSurface, Sphere, Transform, WideBvhNode,
 };
 use crate::elements::camera::CameraBasis;
 use crate::elements::texture::TexturePack;
@@ -68,12 +69,12 @@ pub struct PackedScene {
     pub transforms: Vec<Transform>,
     pub meshes: Vec<MeshDesc>,
     pub mesh_instances: Vec<MeshInstance>,
-    /// Whether meshes carry 8-wide BVHs ([`crate::accel::wide_bvh::WideBvh`], on a CPU:
-    /// kernels/wide_bvh.h) in `wide_nodes`, instead of kd-trees in `kd_nodes`; either way their leaves' triangles
-    /// are in `kd_indices` (a kd-tree's as numbers, a wide BVH's as slots of
-    /// `LEAF_SLOT` words), and the kernels' mesh-node buffer holds the one kind.
-    pub wide_bvh: bool,
+    /// The tree meshes carry: kd-trees in `kd_nodes`, binary BVHs in `bvh2_nodes` or 8-wide
+    /// BVHs in `wide_nodes`. Every tree's leaves' triangles are in `kd_indices`, as slots of
+    /// `LEAF_SLOT` words, and the kernels' mesh-node buffer holds the one kind.
+    pub mesh_tree: MeshTree,
     pub kd_nodes: Vec<KdNode>,
+    pub bvh2_nodes: Vec<Bvh2Node>,
     pub wide_nodes: Vec<WideBvhNode>,
     pub kd_indices: Vec<u32>,
     pub triangles: Vec<[u32; 3]>,
@@ -158,10 +159,10 @@ impl PackedScene {
             self.bvh.len(),
             self.objects.len() as u32 - self.first_unbounded
         );
-        let tree = if self.wide_bvh {
-            "8-wide BVH"
-        } else {
-            "kd-tree"
+        let tree = match self.mesh_tree {
+            MeshTree::Kd => "kd-tree",
+            MeshTree::Bvh2 => "binary BVH",
+            MeshTree::Wide => "8-wide BVH",
         };
         for m in &self.mesh_info {
             out.push_str(&format!(

@@ -10,7 +10,7 @@
 //! switched, as their three branches are a few lines each. The measured gains are in
 //! BENCHMARKS.md.
 
-use super::ObjectBvh;
+use super::{MeshTree, ObjectBvh};
 use crate::contract::{OBJECT_KINDS, OBJECT_MESH, OBJECT_NONE, OBJECT_REVSURFACE, OBJECT_SLOTS};
 use crate::scene::Scene;
 use crate::shapes::{RevSurfaceShape, Shape};
@@ -50,10 +50,9 @@ pub struct Features {
     /// renderer for NVIDIA GPUs, whose inline PTX the vote is ([`Features::regeneration_on`]);
     /// `of` leaves it off.
     pub regenerate: bool,
-    /// Meshes walk 8-wide BVHs (kernels/wide_bvh.h) instead of kd-trees: set by the renderer
-    /// (`--mesh-tree`, or the device's: [`crate::render::MeshTree::default_on`]); `of` leaves
-    /// it off.
-    pub wide_bvh: bool,
+    /// The tree meshes walk (kernels/kdtree.h, bvh2.h or wide_bvh.h): set by the renderer
+    /// (`--mesh-tree`, or the device's: [`MeshTree::default_on`]); `of` leaves the kd-tree.
+    pub mesh_tree: MeshTree,
     /// The 8-wide BVH asks for what it will read ahead (kernels/wide_bvh.h, `prefetch_lines`):
     /// set by the renderer for CPU devices ([`Features::prefetch_on`]), whose compilers
     /// (PoCL's clang) take the hint; NVIDIA's refuses it on global pointers. `of` leaves it
@@ -119,7 +118,7 @@ impl Features {
             walls: false,
             nee: false,
             regenerate: false,
-            wide_bvh: false,
+            mesh_tree: MeshTree::Kd,
             prefetch: false,
             lanes: 1,
         }
@@ -221,7 +220,8 @@ impl Features {
             ("CLPT_NEE", flag(self.nee)),
             ("CLPT_REGENERATE", flag(self.regenerate)),
             ("CLPT_WIDE", flag(self.lanes > 1)),
-            ("CLPT_WIDE_BVH", flag(self.wide_bvh)),
+            ("CLPT_BVH2", flag(self.mesh_tree == MeshTree::Bvh2)),
+            ("CLPT_WIDE_BVH", flag(self.mesh_tree == MeshTree::Wide)),
             ("CLPT_PREFETCH", flag(self.prefetch)),
             ("CLPT_LANES", self.lanes.to_string()),
         ];
@@ -258,7 +258,14 @@ impl fmt::Display for Features {
             (self.glass, "glass"),
             (self.nee, "nee"),
             (self.regenerate, "regenerate"),
-            (self.wide_bvh && self.has(OBJECT_MESH), "wide-bvh"),
+            (
+                self.mesh_tree == MeshTree::Bvh2 && self.has(OBJECT_MESH),
+                "bvh2",
+            ),
+            (
+                self.mesh_tree == MeshTree::Wide && self.has(OBJECT_MESH),
+                "wide-bvh",
+            ),
             (self.lanes > 1, lanes.as_str()),
         ];
         on.extend(

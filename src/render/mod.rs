@@ -107,24 +107,18 @@ impl std::str::FromStr for ObjectBvh {
     }
 }
 
-/// The tree a mesh's triangles are walked through (kernels/kdtree.h or kernels/wide_bvh.h).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MeshTree {
-    /// A SAH kd-tree (src/accel/kdtree.rs).
-    Kd,
-    /// An 8-wide BVH (src/accel/wide_bvh.rs): a CPU's, the only one its wide programs walk.
-    Wide,
-}
+pub use crate::accel::MeshTree;
 
 impl MeshTree {
     /// The tree a device walks by default: the 8-wide BVH on a CPU, whose scalar programs it
     /// speeds as it does the wide ones (PoCL, 2 cores: case1 22 to 32% less user CPU, the
-    /// dragon room 29%); the kd-tree on a GPU, where the 8-wide BVH walked as written for the
-    /// CPU was 9 to 43% slower with light sampling (H100: case1, meshes, the dragon room) and
-    /// at best 8% faster without it (BENCHMARKS.md, "The 8-wide BVH everywhere on a CPU").
+    /// dragon room 29%); the binary BVH on a GPU, which walked case1 2 to 4% faster than the
+    /// kd-tree and the dragon room 4 to 12% (H100, BENCHMARKS.md, "A binary BVH for GPUs"),
+    /// where the 8-wide BVH walked as written for the CPU was 9 to 43% slower than the kd-tree
+    /// with light sampling ("The 8-wide BVH everywhere on a CPU").
     pub fn default_on(device: &DeviceDescription) -> MeshTree {
         if device.is_gpu {
-            MeshTree::Kd
+            MeshTree::Bvh2
         } else {
             MeshTree::Wide
         }
@@ -136,8 +130,9 @@ impl std::str::FromStr for MeshTree {
     fn from_str(s: &str) -> std::result::Result<Self, String> {
         match s {
             "kd" => Ok(MeshTree::Kd),
+            "bvh2" => Ok(MeshTree::Bvh2),
             "wide" => Ok(MeshTree::Wide),
-            other => Err(format!("unknown mesh tree `{other}`: use kd or wide")),
+            other => Err(format!("unknown mesh tree `{other}`: use kd, bvh2 or wide")),
         }
     }
 }
@@ -643,12 +638,12 @@ fn check_request(device: &Device, scene: &Scene, options: &RenderOptions) -> Res
 }
 
 /// What the program holds: the scene's features (or all), the lanes a work-item carries and
-/// whether meshes are walked through 8-wide BVHs.
+/// the tree meshes are walked through.
 fn program_shape(
     device: &Device,
     scene: &Scene,
     options: &RenderOptions,
-) -> Result<(Features, u32, bool)> {
+) -> Result<(Features, u32, MeshTree)> {
     // Leave out what the scene does not need (features.rs, kernels/features.h); the mesh
     // tree is packed for the program (MeshTree).
     let base_features = if options.all_features {
@@ -657,17 +652,19 @@ fn program_shape(
         Features::of(scene, options.object_bvh)
     };
     let lanes = base_features.wide_lanes(&device.description, options.lanes);
-    let wide_bvh = match options.mesh_tree {
-        Some(MeshTree::Kd) if lanes > 1 => {
+    let mesh_tree = match options.mesh_tree {
+        Some(tree @ (MeshTree::Kd | MeshTree::Bvh2)) if lanes > 1 => {
+            let name = if tree == MeshTree::Kd { "kd" } else { "bvh2" };
             return Err(Error::Invalid(format!(
                 "a wide program ({lanes} lanes) walks meshes through 8-wide BVHs: \
-                 --mesh-tree kd takes --lanes 1"
+                 --mesh-tree {name} takes --lanes 1"
             )));
         }
-        Some(tree) => tree == MeshTree::Wide,
-        None => MeshTree::default_on(&device.description) == MeshTree::Wide,
+        Some(tree) => tree,
+        None if lanes > 1 => MeshTree::Wide,
+        None => MeshTree::default_on(&device.description),
     };
-    Ok((base_features, lanes, wide_bvh))
+    Ok((base_features, lanes, mesh_tree))
 }
 
 /// The film on the device: per pixel the sums of the samples (`sum` + `sum_lo`, compensated),
@@ -753,12 +750,12 @@ impl<'d> Renderer<'d> {
         options: RenderOptions,
     ) -> Result<Self> {
         check_request(device, scene, &options)?;
-        let (base_features, lanes, wide_bvh) = program_shape(device, scene, &options)?;
+        let (base_features, lanes, mesh_tree) = program_shape(device, scene, &options)?;
         let packed = PackedScene::with_limits(
             scene,
             options.max_texture_pixels,
             options.max_mesh_bytes,
-            wide_bvh,
+            mesh_tree,
         )?;
         let filter = match options.texture_filter {
             TextureFilter::Bilinear => contract::FILTER_BILINEAR,
@@ -786,7 +783,7 @@ impl<'d> Renderer<'d> {
             features.nee = light_sampling;
             features.regenerate = Features::regeneration_on(&device.description);
             features.lanes = lanes;
-            features.wide_bvh = wide_bvh;
+            features.mesh_tree = mesh_tree;
             features.prefetch = Features::prefetch_on(&device.description);
             features.walls |= features.walls_on(&params.walls, &device.description);
             let program = program::build_entry(

@@ -5,6 +5,7 @@
 //! ([`PackedScene::finish`]).
 
 use super::{MaterialKind, Scene};
+use crate::accel::MeshTree;
 use crate::contract::{self, Material};
 use crate::elements::Material as SceneMaterial;
 use crate::elements::camera::CameraBasis;
@@ -19,24 +20,24 @@ use std::collections::HashMap;
 
 impl PackedScene {
     /// Packs `scene` with OBJ files of at most [`mesh::DEFAULT_MAX_FILE_BYTES`], meshes in
-    /// kd-trees ([`PackedScene::with_limits`]).
+    /// kd-trees ([`PackedScene::with_limits`]): the one-lane probes' and benchmarks' default.
     pub fn new(scene: &Scene, max_texture_pixels: u64) -> Result<PackedScene> {
         PackedScene::with_limits(
             scene,
             max_texture_pixels,
             mesh::DEFAULT_MAX_FILE_BYTES,
-            false,
+            MeshTree::Kd,
         )
     }
 
     /// Packs `scene`, loading its texture maps (each image at most `max_texture_pixels`) and
     /// meshes (each OBJ file at most `max_mesh_bytes`), and building the BVH and each mesh's
-    /// kd-tree, or its 8-wide BVH with `wide_bvh` (on a CPU).
+    /// `mesh_tree`.
     pub fn with_limits(
         scene: &Scene,
         max_texture_pixels: u64,
         max_mesh_bytes: u64,
-        wide_bvh: bool,
+        mesh_tree: MeshTree,
     ) -> Result<PackedScene> {
         let textures = TexturePack::load(
             &scene.materials,
@@ -51,7 +52,7 @@ impl PackedScene {
         let mut packed = PackedScene {
             origin,
             camera,
-            wide_bvh,
+            mesh_tree,
             ..PackedScene::default()
         };
         // Object-to-device transforms: the scene's, then the move to the camera-relative origin.

@@ -1,13 +1,15 @@
-//! Triangle meshes (kernels/triangle.h, kdtree.h, wide_bvh.h): each OBJ file loaded once for
-//! each way it is placed, its kd-tree (or its 8-wide BVH on a CPU) built once however many
-//! instances use it, and one instance an object; an emitting mesh's triangles that some path
+//! Triangle meshes (kernels/triangle.h, kdtree.h, bvh2.h, wide_bvh.h): each OBJ file loaded
+//! once for each way it is placed, its tree (a GPU's binary BVH, a CPU's 8-wide BVH, or a
+//! kd-tree: `PackedScene::mesh_tree`) built once however many instances use it, and one instance an object; an emitting mesh's triangles that some path
 //! can see are light-list entries.
 
 use super::{HostShape, MeshFiles, ObjectPlace, Placement, ShapeSyntax, all_finite, transform_box};
 use crate::accel::aabb::Aabb;
 use crate::accel::kdtree::{KdParams, KdTree};
+use crate::accel::MeshTree;
+use crate::accel::bvh2::Bvh2;
 use crate::accel::wide_bvh::WideBvh;
-use crate::contract::{self, KdNode, Light, MeshDesc, MeshInstance, WideBvhNode};
+use crate::contract::{self, Bvh2Node, KdNode, Light, MeshDesc, MeshInstance, WideBvhNode};
 use crate::error::{Error, Result};
 use crate::pack::convert::f32x3;
 use crate::pack::lights::{Affine, LightSources, Room, TRIANGLE, constant_emission, dvec};
@@ -179,28 +181,41 @@ fn push_mesh(packed: &mut PackedScene, mesh: TriangleMesh) -> Result<u32> {
         path: mesh.path.clone(),
         message: format!("the scene's meshes exceed 2^32 {what}"),
     };
-    let first_node = if packed.wide_bvh {
-        packed.wide_nodes.len()
-    } else {
-        packed.kd_nodes.len()
+    let first_node = match packed.mesh_tree {
+        MeshTree::Kd => packed.kd_nodes.len(),
+        MeshTree::Bvh2 => packed.bvh2_nodes.len(),
+        MeshTree::Wide => packed.wide_nodes.len(),
     };
     let first_node = u32::try_from(first_node).map_err(|_| too_big("tree nodes"))?;
     let first_index = u32::try_from(packed.kd_indices.len()).map_err(|_| too_big("indices"))?;
-    let (bounds, node_bytes) = if packed.wide_bvh {
-        let tree = WideBvh::build(&mesh.positions, &mesh.triangles).ok_or_else(|| Error::Mesh {
-            path: mesh.path.clone(),
-            message: "more than 2^28 triangles: too many for an 8-wide BVH (--lanes 1 \
-                          --mesh-tree kd renders it with a kd-tree)"
-                .into(),
-        })?;
-        packed.wide_nodes.extend(&tree.nodes);
-        push_slots(packed, &mesh, &tree.indices).map_err(|_| too_big("vertices"))?;
-        (tree.bounds, tree.nodes.len() * size_of::<WideBvhNode>())
-    } else {
-        let tree = KdTree::build(&mesh.positions, &mesh.triangles, &KdParams::default());
-        packed.kd_nodes.extend(&tree.nodes);
-        push_slots(packed, &mesh, &tree.indices).map_err(|_| too_big("vertices"))?;
-        (tree.bounds, tree.nodes.len() * size_of::<KdNode>())
+    let bvh_too_big = |what: &str| Error::Mesh {
+        path: mesh.path.clone(),
+        message: format!(
+            "2^28 triangles or more: too many for {what} (--lanes 1 --mesh-tree kd renders it \
+             with a kd-tree)"
+        ),
+    };
+    let (bounds, node_bytes) = match packed.mesh_tree {
+        MeshTree::Kd => {
+            let tree = KdTree::build(&mesh.positions, &mesh.triangles, &KdParams::default());
+            packed.kd_nodes.extend(&tree.nodes);
+            push_slots(packed, &mesh, &tree.indices).map_err(|_| too_big("vertices"))?;
+            (tree.bounds, tree.nodes.len() * size_of::<KdNode>())
+        }
+        MeshTree::Bvh2 => {
+            let tree = Bvh2::build(&mesh.positions, &mesh.triangles)
+                .ok_or_else(|| bvh_too_big("a binary BVH"))?;
+            packed.bvh2_nodes.extend(&tree.nodes);
+            push_slots(packed, &mesh, &tree.indices).map_err(|_| too_big("vertices"))?;
+            (tree.bounds, tree.nodes.len() * size_of::<Bvh2Node>())
+        }
+        MeshTree::Wide => {
+            let tree = WideBvh::build(&mesh.positions, &mesh.triangles)
+                .ok_or_else(|| bvh_too_big("an 8-wide BVH"))?;
+            packed.wide_nodes.extend(&tree.nodes);
+            push_slots(packed, &mesh, &tree.indices).map_err(|_| too_big("vertices"))?;
+            (tree.bounds, tree.nodes.len() * size_of::<WideBvhNode>())
+        }
     };
     let (lo, hi) = bounds.to_f32_outward();
     let desc = MeshDesc {

@@ -235,7 +235,7 @@ pub fn probes_in_lanes(device: &Device, lanes: u32) -> ocl::Program {
         return probes(device);
     }
     // What the wide kernels are written for so far (render/features.rs `wide_lanes`): meshes
-    // there walk 8-wide BVHs (PackedScene::with_limits' `wide_bvh`).
+    // there walk 8-wide BVHs (PackedScene::with_limits' `mesh_tree`).
     let mut defines: Vec<(&str, String)> = [
         "CLPT_REVSURFACES",
         "CLPT_BVH",
@@ -333,14 +333,21 @@ pub fn probe_hits_in_lanes(
     probe_hits_with(&program, device, scene, rays, lanes)
 }
 
-/// As [`probe_hits`], on the one-lane program whose meshes walk 8-wide BVHs (`CLPT_WIDE_BVH`,
-/// a CPU's default: render/mod.rs `MeshTree`); `scene` packed with them.
-pub fn probe_hits_wide_bvh(
+/// As [`probe_hits`], on the one-lane program whose meshes walk `scene`'s tree (render/mod.rs
+/// `MeshTree`: the 8-wide BVH with `CLPT_WIDE_BVH`, a CPU's default; the binary BVH with
+/// `CLPT_BVH2`, a GPU's).
+pub fn probe_hits_mesh_tree(
     device: &Device,
     scene: &PackedScene,
     rays: &[[f32; 9]],
 ) -> Vec<[f32; 16]> {
-    let program = build_without_warnings(device, "probes.cl", &[("CLPT_WIDE_BVH", "1".into())]);
+    use clpt::render::MeshTree;
+    let flag = |tree: MeshTree| if scene.mesh_tree == tree { "1" } else { "0" }.to_string();
+    let defines = [
+        ("CLPT_WIDE_BVH", flag(MeshTree::Wide)),
+        ("CLPT_BVH2", flag(MeshTree::Bvh2)),
+    ];
+    let program = build_without_warnings(device, "probes.cl", &defines);
     probe_hits_on(&program, device, scene, rays)
 }
 

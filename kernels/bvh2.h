@@ -1,0 +1,82 @@
+/* bvh2.h: nearest hit of a ray with a mesh through its binary BVH, on a GPU (the job of
+ * kdtree.h in the original; src/accel/bvh2.rs builds the tree, render/mod.rs `MeshTree`
+ * chooses).
+ *
+ * Reads: the mesh's Bvh2Node array (types.h), its leaves' triangle slots (in the kd_indices
+ * buffer, triangle.h `slots_intersect`) and vertices. Writes: nothing. The ray is in the
+ * mesh's object space (direction not normalised).
+ * Why: Aila and Laine's walk ("Understanding the efficiency of ray traversal on GPUs", HPG
+ * 2009). A node holds both children's boxes, so a step reads one node (four float4) and tests
+ * both; the ray goes on into the nearer child entered and pushes the other. Descents run in a
+ * loop of their own down to a leaf ("while-while"), so that a warp's work-items test their
+ * leaves together. The stack holds nodes only, not their entry distances: a popped node whose
+ * box lies beyond the nearest hit is dropped by its own box test one step later, which on an
+ * H100 cost less than keeping and checking the distances (BENCHMARKS.md, "A binary BVH for
+ * GPUs"). Against the SAH kd-tree of kdtree.h it saves the split-plane slack and the
+ * (t0, t1) bookkeeping of each step, and a triangle sits in one leaf only.
+ */
+#ifndef CLPT_BVH2_H
+#define CLPT_BVH2_H
+
+#include "aabb.h"
+#include "triangle.h"
+#include "types.h"
+
+/* Enough for any tree the host builds: at most SAH_DEPTH + 28 = 60 levels (src/accel/
+ * binary_bvh.rs), each pushing at most one node. */
+#define BVH2_STACK 64
+
+/* Updates *t, *prim, *b1, *b2 with the nearest hit in (0, *t) of o + t d with mesh `m`;
+ * whether there was one. */
+inline bool bvh2_intersect(__global const MeshDesc* m, __global const Bvh2Node* bvh2_nodes,
+                           __global const uint* kd_indices, __global const float* vertices,
+                           float3 o, float3 d, float* t, uint* prim, float* b1, float* b2) {
+    const float3 inv_d = 1.0f / d;
+    {
+        float t0 = 0.0f, t1 = *t;
+        if (!aabb_clip(vload3(0, m->lo), vload3(0, m->hi), o, inv_d, &t0, &t1)) {
+            return false;
+        }
+    }
+    /* A node as four float4 (64 bytes, aligned: types.h): lo0.xyz hi0.x, hi0.yz lo1.xy,
+     * lo1.z hi1.xyz, the two children and padding. */
+    __global const float4* nodes = (__global const float4*)(bvh2_nodes + m->first_node);
+    __global const uint* indices = kd_indices + m->first_index;
+    const WatertightRay ray = watertight_setup(o, d);
+    uint stack[BVH2_STACK];
+    int top = 0;
+    uint node = 0u; /* a node, or a leaf (WIDE_BVH_LEAF) */
+    bool found = false;
+    while (true) {
+        while ((node & WIDE_BVH_LEAF) == 0u) {
+            const float4 w0 = nodes[4u * node];
+            const float4 w1 = nodes[4u * node + 1u];
+            const float4 w2 = nodes[4u * node + 2u];
+            const uint4 c = as_uint4(nodes[4u * node + 3u]);
+            float t0a = 0.0f, t1a = *t, t0b = 0.0f, t1b = *t;
+            const bool a = c.x != WIDE_BVH_EMPTY &&
+                           aabb_clip(w0.xyz, (float3)(w0.w, w1.x, w1.y), o, inv_d, &t0a, &t1a);
+            const bool b = c.y != WIDE_BVH_EMPTY &&
+                           aabb_clip((float3)(w1.z, w1.w, w2.x), w2.yzw, o, inv_d, &t0b, &t1b);
+            if (a && b) {
+                const bool a_first = t0a <= t0b;
+                node = a_first ? c.x : c.y;
+                stack[top++] = a_first ? c.y : c.x;
+            } else if (a || b) {
+                node = a ? c.x : c.y;
+            } else if (top == 0) {
+                return found;
+            } else {
+                node = stack[--top];
+            }
+        }
+        found |= slots_intersect(indices + LEAF_SLOT * (node & 0x0FFFFFFFu),
+                                 ((node >> 28) & 7u) + 1u, vertices, &ray, t, prim, b1, b2);
+        if (top == 0) {
+            return found;
+        }
+        node = stack[--top];
+    }
+}
+
+#endif
