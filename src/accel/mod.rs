@@ -5,7 +5,7 @@
 //! ([`binary_bvh`]); on boxes of [`aabb`] (← AABB.cuh).
 
 pub mod aabb;
-mod binary_bvh;
+pub mod binary_bvh;
 pub mod bvh;
 pub mod bvh2;
 pub mod kdtree;
