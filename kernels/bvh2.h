@@ -2,8 +2,8 @@
  * kdtree.h in the original; src/accel/bvh2.rs builds the tree, render/mod.rs `MeshTree`
  * chooses).
  *
- * Reads: the mesh's Bvh2Node array (types.h), its leaves' triangle slots (in the kd_indices
- * buffer, triangle.h `slots_intersect`) and vertices. Writes: nothing. The ray is in the
+ * Reads: the mesh's Bvh2Node array and its leaves' Bvh2Triangles (types.h; in the kd_nodes and
+ * kd_indices buffers). Writes: nothing. The ray is in the
  * mesh's object space (direction not normalised).
  * Why: Aila and Laine's walk ("Understanding the efficiency of ray traversal on GPUs", HPG
  * 2009). A node holds both children's boxes, so a step reads one node (four float4) and tests
@@ -13,7 +13,9 @@
  * box lies beyond the nearest hit is dropped by its own box test one step later, which on an
  * H100 cost less than keeping and checking the distances (BENCHMARKS.md, "A binary BVH for
  * GPUs"). Against the SAH kd-tree of kdtree.h it saves the split-plane slack and the
- * (t0, t1) bookkeeping of each step, and a triangle sits in one leaf only.
+ * (t0, t1) bookkeeping of each step, and a triangle sits in one leaf only. A leaf holds its
+ * triangles' vertices, read at once, not their numbers in the vertex array ("A binary BVH's
+ * triangles in its leaves").
  */
 #ifndef CLPT_BVH2_H
 #define CLPT_BVH2_H
@@ -26,11 +28,26 @@
  * binary_bvh.rs), each pushing at most one node. */
 #define BVH2_STACK 64
 
+/* Updates *t, *prim, *b1, *b2 with the nearest hit in (0, *t) of the ray with the `count`
+ * triangles of a leaf, each read as three float4 (types.h). */
+inline bool bvh2_leaf_intersect(__global const Bvh2Triangle* triangles, uint count,
+                                const WatertightRay* ray, float* t, uint* prim, float* b1,
+                                float* b2) {
+    __global const float4* w = (__global const float4*)triangles;
+    bool found = false;
+    for (uint i = 0u; i < count; ++i) {
+        const float4 a = w[3u * i], b = w[3u * i + 1u], c = w[3u * i + 2u];
+        found |= leaf_triangle(ray, a.xyz, (float3)(a.w, b.x, b.y), (float3)(b.z, b.w, c.x),
+                               as_uint(c.y), t, prim, b1, b2);
+    }
+    return found;
+}
+
 /* Updates *t, *prim, *b1, *b2 with the nearest hit in (0, *t) of o + t d with mesh `m`;
  * whether there was one. */
 inline bool bvh2_intersect(__global const MeshDesc* m, __global const Bvh2Node* bvh2_nodes,
-                           __global const uint* kd_indices, __global const float* vertices,
-                           float3 o, float3 d, float* t, uint* prim, float* b1, float* b2) {
+                           __global const Bvh2Triangle* bvh2_triangles, float3 o, float3 d,
+                           float* t, uint* prim, float* b1, float* b2) {
     const float3 inv_d = 1.0f / d;
     {
         float t0 = 0.0f, t1 = *t;
@@ -41,7 +58,7 @@ inline bool bvh2_intersect(__global const MeshDesc* m, __global const Bvh2Node* 
     /* A node as four float4 (64 bytes, aligned: types.h): lo0.xyz hi0.x, hi0.yz lo1.xy,
      * lo1.z hi1.xyz, the two children and padding. */
     __global const float4* nodes = (__global const float4*)(bvh2_nodes + m->first_node);
-    __global const uint* indices = kd_indices + m->first_index;
+    __global const Bvh2Triangle* triangles = bvh2_triangles + m->first_index;
     const WatertightRay ray = watertight_setup(o, d);
     uint stack[BVH2_STACK];
     int top = 0;
@@ -70,8 +87,8 @@ inline bool bvh2_intersect(__global const MeshDesc* m, __global const Bvh2Node* 
                 node = stack[--top];
             }
         }
-        found |= slots_intersect(indices + LEAF_SLOT * (node & 0x0FFFFFFFu),
-                                 ((node >> 28) & 7u) + 1u, vertices, &ray, t, prim, b1, b2);
+        found |= bvh2_leaf_intersect(triangles + (node & 0x0FFFFFFFu), ((node >> 28) & 7u) + 1u,
+                                     &ray, t, prim, b1, b2);
         if (top == 0) {
             return found;
         }

@@ -46,8 +46,8 @@ inline bool mesh_tree_intersect(const Scene* sc, __global const MeshDesc* m, flo
                               sc->vertices, o, d, t, prim, b1, b2);
 #else
 #if CLPT_BVH2
-    return bvh2_intersect(m, (__global const Bvh2Node*)sc->kd_nodes, sc->kd_indices,
-                          sc->vertices, o, d, t, prim, b1, b2);
+    return bvh2_intersect(m, (__global const Bvh2Node*)sc->kd_nodes,
+                          (__global const Bvh2Triangle*)sc->kd_indices, o, d, t, prim, b1, b2);
 #else
     return kdtree_intersect(m, sc->kd_nodes, sc->kd_indices, sc->vertices, o, d, t, prim, b1,
                             b2);

@@ -101,8 +101,8 @@ inline bool leaf_triangle(const WatertightRay* ray, float3 a, float3 b, float3 c
  * triangles of a tree leaf's slots (LEAF_SLOT words each: the vertices' numbers in the scene's
  * vertex array, then the triangle's number in its mesh; src/shapes/mesh.rs). A slot is read at
  * once, so a triangle costs one load before its vertices, where a list of triangle numbers cost
- * two (BENCHMARKS.md, "Leaf slots"). Every mesh tree's leaves (kdtree.h's, bvh2.h's and
- * wide_bvh.h's) use it. */
+ * two (BENCHMARKS.md, "Leaf slots"). The kd-tree's and the 8-wide BVH's leaves use it
+ * (kdtree.h, wide_bvh.h); a binary BVH's hold their vertices (bvh2.h). */
 inline bool slots_intersect(__global const uint* slots, uint count,
                             __global const float* vertices, const WatertightRay* ray, float* t,
                             uint* prim, float* b1, float* b2) {

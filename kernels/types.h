@@ -86,8 +86,8 @@ CLPT_ASSERT_SIZE(WideBvhNode, 224);
 /* A node of a mesh's binary BVH (src/accel/bvh2.rs, bvh2.h), a GPU's mesh tree: both children's
  * boxes and references, so that one step reads one node and tests both (Aila and Laine 2009). A
  * child is as in WideBvhNode: another node's index, WIDE_BVH_LEAF | (count - 1) << 28 | first
- * slot, or WIDE_BVH_EMPTY. 64 bytes with `pad`, so that a node is four aligned float4, which
- * bvh2.h reads it as. */
+ * triangle (a Bvh2Triangle, relative to the mesh's first), or WIDE_BVH_EMPTY. 64 bytes with
+ * `pad`, so that a node is four aligned float4, which bvh2.h reads it as. */
 typedef struct Bvh2Node {
     float lo0[3];
     float hi0[3];
@@ -97,6 +97,16 @@ typedef struct Bvh2Node {
     uint pad[2];
 } Bvh2Node;
 CLPT_ASSERT_SIZE(Bvh2Node, 64);
+
+/* A binary BVH leaf's triangle (src/shapes/mesh.rs, bvh2.h): its three vertices as the vertex
+ * array holds them, its number in its mesh, and padding, so that it is three aligned float4 read
+ * at once, with no vertex numbers to follow. */
+typedef struct Bvh2Triangle {
+    float vertices[9];
+    uint number;
+    uint pad[2];
+} Bvh2Triangle;
+CLPT_ASSERT_SIZE(Bvh2Triangle, 48);
 
 /* Marks an object BVH child that is an object: BVH_LEAF | object index. */
 #define BVH_LEAF 0x80000000u
@@ -188,9 +198,10 @@ typedef struct Plane {
 } Plane;
 CLPT_ASSERT_SIZE(Plane, 76);
 
-/* A triangle mesh's data, shared by every instance of it (mesh.cuh): its kd-tree nodes and
- * triangle index list, its index triples (vertex numbers counted from first_vertex) and its
- * vertices (and per-vertex normals when has_normals), in the scene's common arrays. */
+/* A triangle mesh's data, shared by every instance of it (mesh.cuh): its tree's nodes and leaf
+ * slots (LEAF_SLOT words each, or Bvh2Triangles: `first_index` counts those), its index triples
+ * (vertex numbers counted from first_vertex) and its vertices (and per-vertex normals when
+ * has_normals), in the scene's common arrays. */
 typedef struct MeshDesc {
     uint first_node;
     uint first_index;

@@ -147,8 +147,6 @@ fn check_against(
         let (o, d) = parts(r);
         let w = want(o, d);
         let device = (g[1] == HIT_MESH).then(|| (g[0] as f64, g[13]));
-        let device_tri = g[2];
-        let _ = device_tri;
         match (w, device) {
             (Some((t, _, u, v)), Some((tg, _))) => {
                 compared += 1;
@@ -157,6 +155,15 @@ fn check_against(
                     assert!(
                         inside_margin(u, v) < edge,
                         "{what}: t {tg} vs f64 {t} (o {o}, d {d})"
+                    );
+                } else {
+                    // The same place: the surface the device built from the triangle it
+                    // names (its vertices and barycentrics) lies where the ray meets it.
+                    let p = DVec3::new(g[3] as f64, g[4] as f64, g[5] as f64);
+                    let want_p = o + d.normalize() * t;
+                    assert!(
+                        (p - want_p).length() <= 1e-4 * t + 1e-5 * (1.0 + want_p.length()),
+                        "{what}: surface point {p} vs f64 {want_p} (o {o}, d {d})"
                     );
                 }
             }

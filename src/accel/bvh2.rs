@@ -8,176 +8,72 @@
 //! H100 it walked case1 4% faster than the SAH kd-tree without light sampling (2% with it), the
 //! dragon room 12% (4%), at leaves of [`MAX_LEAF`] (BENCHMARKS.md, "A binary BVH for GPUs").
 
-use super::aabb::Aabb;
-use super::binary_bvh::{Binary, BinaryBvh, leaf_ref};
+use super::binary_bvh::{Binary, FlatBvh, Flatten};
 use crate::contract::{Bvh2Node, WIDE_BVH_EMPTY};
+
+/// A mesh's binary BVH, built by [`FlatBvh::build`].
+pub type Bvh2 = FlatBvh<Bvh2Node>;
 
 /// The most triangles a leaf holds: on the H100, 4 and 2 ran level (within 1%), 8 3 to 5%
 /// slower.
 pub const MAX_LEAF: usize = 4;
 
-/// The flattened tree of one mesh: `nodes[0]` is the root; a leaf reference's first index
-/// indexes `indices`, which hold triangle numbers of the mesh.
-pub struct Bvh2 {
-    pub nodes: Vec<Bvh2Node>,
-    pub indices: Vec<u32>,
-    /// Tight bounds of the triangles (empty when the mesh has none that can be hit).
-    pub bounds: Aabb,
-}
+impl Flatten for Bvh2Node {
+    const MAX_LEAF: usize = MAX_LEAF;
 
-impl Bvh2 {
-    /// The tree of a mesh given as vertex positions (object space) and index triples, the
-    /// triangles left out as the kd-tree's ([`super::kdtree::KdTree::build`]). `None` when a
-    /// mesh has 2^28 triangles or more (the leaf reference's limit).
-    pub fn build(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Option<Bvh2> {
-        let binary = BinaryBvh::build(positions, triangles, MAX_LEAF)?;
-        let mut out = Bvh2 {
-            nodes: Vec::new(),
-            indices: binary.indices,
-            bounds: binary.bounds,
-        };
-        match &binary.root {
-            None => out.nodes.push(empty_node()),
-            Some(leaf @ Binary::Leaf { .. }) => {
-                // One leaf: a root holding it as its first child.
-                let mut node = empty_node();
-                set_child(&mut node, 0, leaf, leaf_ref(leaf));
-                out.nodes.push(node);
-            }
-            Some(inner) => {
-                emit(inner, &mut out.nodes);
-            }
+    fn empty() -> Self {
+        Bvh2Node {
+            lo0: [f32::INFINITY; 3],
+            hi0: [f32::NEG_INFINITY; 3],
+            lo1: [f32::INFINITY; 3],
+            hi1: [f32::NEG_INFINITY; 3],
+            child: [WIDE_BVH_EMPTY; 2],
+            pad: [0; 2],
         }
-        Some(out)
     }
-}
 
-/// A node with no children: boxes empty (lo +inf, hi -inf), both children `WIDE_BVH_EMPTY`.
-fn empty_node() -> Bvh2Node {
-    Bvh2Node {
-        lo0: [f32::INFINITY; 3],
-        hi0: [f32::NEG_INFINITY; 3],
-        lo1: [f32::INFINITY; 3],
-        hi1: [f32::NEG_INFINITY; 3],
-        child: [WIDE_BVH_EMPTY; 2],
-        pad: [0; 2],
+    fn set_child(&mut self, k: usize, child: &Binary, reference: u32) {
+        let (lo, hi) = child.bounds().to_f32_outward();
+        if k == 0 {
+            (self.lo0, self.hi0) = (lo, hi);
+        } else {
+            (self.lo1, self.hi1) = (lo, hi);
+        }
+        self.child[k] = reference;
     }
-}
 
-/// Child `k` of `node`: `child`'s box, rounded outward to f32, and reference `reference`.
-fn set_child(node: &mut Bvh2Node, k: usize, child: &Binary, reference: u32) {
-    let (lo, hi) = child.bounds().to_f32_outward();
-    if k == 0 {
-        (node.lo0, node.hi0) = (lo, hi);
-    } else {
-        (node.lo1, node.hi1) = (lo, hi);
-    }
-    node.child[k] = reference;
-}
-
-/// Writes the node of the binary subtree `inner` (and, depth first, those below it), and
-/// returns its index.
-fn emit(inner: &Binary, nodes: &mut Vec<Bvh2Node>) -> u32 {
-    let Binary::Inner { children, .. } = inner else {
-        unreachable!("emit of a leaf")
-    };
-    let index = nodes.len();
-    nodes.push(empty_node());
-    for (k, child) in children.iter().enumerate() {
-        let reference = match child {
-            Binary::Leaf { .. } => leaf_ref(child),
-            Binary::Inner { .. } => emit(child, nodes),
+    fn children(inner: &Binary) -> Vec<&Binary> {
+        let Binary::Inner { children, .. } = inner else {
+            unreachable!("children of a leaf")
         };
-        set_child(&mut nodes[index], k, child, reference);
+        children.iter().collect()
     }
-    index as u32
 }
 
 #[cfg(test)]
 mod tests {
-    use super::super::binary_bvh::{INDEX_BITS, SAH_DEPTH};
-    use super::super::kdtree::valid_triangles;
+    use super::super::binary_bvh::SAH_DEPTH;
+    use super::super::binary_bvh::test_meshes::{check_tree, degenerate, grid};
     use super::*;
-    use crate::contract::WIDE_BVH_LEAF;
+    use crate::accel::aabb::Aabb;
     use glam::DVec3;
 
-    /// Every triangle that can be hit is in exactly one leaf, inside every box on its way down,
-    /// and no path from the root is deeper than the programs' stack (kernels/bvh2.h). The
-    /// number of leaves and the depth.
+    /// The tree's leaves and depth ([`check_tree`]), the depth within the programs' stack
+    /// (kernels/bvh2.h).
     fn check(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> (usize, usize) {
         let tree = Bvh2::build(positions, triangles).expect("fits");
-        let mut seen = vec![0u32; triangles.len()];
-        let mut stack = vec![(0u32, tree.bounds, 1usize)];
-        let (mut leaves, mut deepest) = (0, 0);
-        while let Some((node, outer, depth)) = stack.pop() {
-            deepest = deepest.max(depth);
+        let children = |node: u32| {
             let n = &tree.nodes[node as usize];
-            for (k, (lo, hi)) in [(n.lo0, n.hi0), (n.lo1, n.hi1)].into_iter().enumerate() {
-                let c = n.child[k];
-                if c == WIDE_BVH_EMPTY {
-                    continue;
-                }
-                let b = Aabb {
-                    lo: DVec3::from(lo.map(f64::from)),
-                    hi: DVec3::from(hi.map(f64::from)),
-                };
-                assert!(
-                    outer.contains(&b) || node == 0,
-                    "a child's box outside its parent's"
-                );
-                if c & WIDE_BVH_LEAF != 0 {
-                    leaves += 1;
-                    let count = ((c >> INDEX_BITS) & 7) as usize + 1;
-                    let first = (c & ((1 << INDEX_BITS) - 1)) as usize;
-                    assert!(count <= MAX_LEAF);
-                    for &t in &tree.indices[first..first + count] {
-                        seen[t as usize] += 1;
-                        let v = triangles[t as usize]
-                            .map(|i| DVec3::from(positions[i as usize].map(f64::from)));
-                        assert!(
-                            b.contains(&Aabb::from_points(v)),
-                            "a triangle outside its leaf"
-                        );
-                    }
-                } else {
-                    assert!(c > node, "children come after their parent");
-                    stack.push((c, b, depth + 1));
-                }
-            }
-        }
-        let valid = valid_triangles(positions, triangles);
-        for t in &valid {
-            assert_eq!(
-                seen[t.number as usize], 1,
-                "triangle {} not in one leaf",
-                t.number
-            );
-        }
-        assert_eq!(seen.iter().map(|&s| s as usize).sum::<usize>(), valid.len());
-        (leaves, deepest)
-    }
-
-    fn grid(n: u32, flat: bool) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
-        let mut p = Vec::new();
-        let mut t = Vec::new();
-        for j in 0..=n {
-            for i in 0..=n {
-                let z = if flat {
-                    0.0
-                } else {
-                    ((i * 7 + j * 3) % 5) as f32 * 0.1
-                };
-                p.push([i as f32, j as f32, z]);
-            }
-        }
-        for j in 0..n {
-            for i in 0..n {
-                let a = j * (n + 1) + i;
-                t.push([a, a + 1, a + n + 1]);
-                t.push([a + 1, a + n + 2, a + n + 1]);
-            }
-        }
-        (p, t)
+            let b = |lo: [f32; 3], hi: [f32; 3]| Aabb {
+                lo: DVec3::from(lo.map(f64::from)),
+                hi: DVec3::from(hi.map(f64::from)),
+            };
+            vec![(b(n.lo0, n.hi0), n.child[0]), (b(n.lo1, n.hi1), n.child[1])]
+        };
+        let tree_of = (tree.bounds, &tree.indices[..], MAX_LEAF);
+        let (leaves, depth) = check_tree(positions, triangles, tree_of, children);
+        assert!(depth <= 64, "depth {depth}");
+        (leaves, depth)
     }
 
     #[test]
@@ -190,22 +86,12 @@ mod tests {
 
     #[test]
     fn degenerate_input_builds_trees_within_the_stack() {
-        // Many copies of one triangle (every centroid on one point) fall back to medians below
-        // SAH_DEPTH: about log2(n / MAX_LEAF) levels. Zero-area and out-of-range ones are left
-        // out.
-        let p = vec![
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [2.0, 2.0, 2.0],
-        ];
-        let mut t = vec![[0, 1, 2]; 5000];
-        t.push([3, 3, 3]);
-        t.push([0, 1, 9]);
+        // Copies of one triangle fall back to medians below SAH_DEPTH: about log2(n / MAX_LEAF)
+        // levels.
+        let (p, t) = degenerate();
         let (_, depth) = check(&p, &t);
         assert!(depth <= SAH_DEPTH + 12, "depth {depth}");
-        // A staircase whose SAH splits peel one triangle at a time goes to the median past
-        // SAH_DEPTH.
+        // A staircase of triangles whose sizes double every eight steps.
         let mut p = Vec::new();
         let mut t = Vec::new();
         for i in 0..400u32 {

@@ -36,7 +36,8 @@ scene_buffers! {
     /// Every mesh's tree nodes: `KdNode`s, or `Bvh2Node`s or `WideBvhNode`s in a program
     /// whose meshes walk those (`CLPT_BVH2`, `CLPT_WIDE_BVH`).
     kd_nodes: "KdNode",
-    /// The mesh trees' leaf slots (`LEAF_SLOT` words each).
+    /// The mesh trees' leaf slots (`LEAF_SLOT` words each), or `Bvh2Triangle`s in a program
+    /// whose meshes walk binary BVHs (`CLPT_BVH2`).
     kd_indices: "uint",
     /// Every mesh's triangles as vertex-number triples.
     triangles: "uint",

@@ -75,14 +75,24 @@ shared! {
     /// A node of a mesh's binary BVH (src/accel/bvh2.rs, bvh2.h), a GPU's mesh tree: both
     /// children's boxes and references, so that one step reads one node and tests both (Aila
     /// and Laine 2009). A child is as in WideBvhNode: another node's index, WIDE_BVH_LEAF |
-    /// (count - 1) << 28 | first slot, or WIDE_BVH_EMPTY. 64 bytes with `pad`, so that a node
-    /// is four aligned float4, which bvh2.h reads it as.
+    /// (count - 1) << 28 | first triangle (a Bvh2Triangle, relative to the mesh's first), or
+    /// WIDE_BVH_EMPTY. 64 bytes with `pad`, so that a node is four aligned float4, which bvh2.h
+    /// reads it as.
     pub struct Bvh2Node {
         pub lo0: [f32; 3],
         pub hi0: [f32; 3],
         pub lo1: [f32; 3],
         pub hi1: [f32; 3],
         pub child: [u32; 2],
+        pub pad: [u32; 2],
+    }
+
+    /// A binary BVH leaf's triangle (src/shapes/mesh.rs, bvh2.h): its three vertices as the
+    /// vertex array holds them, its number in its mesh, and padding, so that it is three aligned
+    /// float4 read at once, with no vertex numbers to follow.
+    pub struct Bvh2Triangle {
+        pub vertices: [f32; 9],
+        pub number: u32,
         pub pad: [u32; 2],
     }
 
@@ -181,8 +191,9 @@ shared! {
         pub transform: u32,
     }
 
-    /// A triangle mesh's data, shared by every instance of it (mesh.cuh): its kd-tree nodes and
-    /// triangle index list, its index triples (vertex numbers counted from first_vertex) and
+    /// A triangle mesh's data, shared by every instance of it (mesh.cuh): its tree's nodes and
+    /// leaf slots (LEAF_SLOT words each, or Bvh2Triangles: `first_index` counts those), its
+    /// index triples (vertex numbers counted from first_vertex) and
     /// its vertices (and per-vertex normals when has_normals), in the scene's common arrays.
     pub struct MeshDesc {
         pub first_node: u32,
@@ -405,6 +416,7 @@ zeroed_default!(
     KdNode,
     WideBvhNode,
     Bvh2Node,
+    Bvh2Triangle,
     BvhNode,
     Camera,
     Material,

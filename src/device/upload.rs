@@ -49,7 +49,10 @@ impl SceneBuffers {
                 MeshTree::Bvh2 => upload_slice(device, &packed.bvh2_nodes)?,
                 MeshTree::Wide => upload_slice(device, &packed.wide_nodes)?,
             },
-            kd_indices: upload_slice(device, &packed.kd_indices)?,
+            kd_indices: match packed.mesh_tree {
+                MeshTree::Bvh2 => upload_slice(device, &packed.bvh2_triangles)?,
+                MeshTree::Kd | MeshTree::Wide => upload_slice(device, &packed.kd_indices)?,
+            },
             triangles: upload_slice(device, &packed.triangles)?,
             vertices: upload_slice(device, &packed.vertices)?,
             normals: upload_slice(device, &packed.normals)?,

@@ -28,8 +28,8 @@ use crate::accel::MeshTree;
 use crate::accel::aabb::Aabb;
 use crate::accel::bvh::Bvh;
 use crate::contract::{
-    self, Bvh2Node, BvhNode, KdNode, Light, Material, MeshDesc, MeshInstance, ObjectRef, Plane,
-    RenderParams, RevSurface, Sphere, Transform, WideBvhNode,
+    self, Bvh2Node, Bvh2Triangle, BvhNode, KdNode, Light, Material, MeshDesc, MeshInstance,
+    ObjectRef, Plane, RenderParams, RevSurface, Sphere, Transform, WideBvhNode,
 };
 use crate::elements::camera::CameraBasis;
 use crate::elements::texture::TexturePack;
@@ -70,13 +70,15 @@ pub struct PackedScene {
     pub meshes: Vec<MeshDesc>,
     pub mesh_instances: Vec<MeshInstance>,
     /// The tree meshes carry: kd-trees in `kd_nodes`, binary BVHs in `bvh2_nodes` or 8-wide
-    /// BVHs in `wide_nodes`. Every tree's leaves' triangles are in `kd_indices`, as slots of
-    /// `LEAF_SLOT` words, and the kernels' mesh-node buffer holds the one kind.
+    /// BVHs in `wide_nodes`. The leaves' triangles are in `kd_indices`, as slots of
+    /// `LEAF_SLOT` words, or a binary BVH's in `bvh2_triangles`; the kernels' mesh-node and
+    /// leaf buffers hold the one kind.
     pub mesh_tree: MeshTree,
     pub kd_nodes: Vec<KdNode>,
     pub bvh2_nodes: Vec<Bvh2Node>,
     pub wide_nodes: Vec<WideBvhNode>,
     pub kd_indices: Vec<u32>,
+    pub bvh2_triangles: Vec<Bvh2Triangle>,
     pub triangles: Vec<[u32; 3]>,
     pub vertices: Vec<[f32; 3]>,
     pub normals: Vec<[f32; 3]>,
