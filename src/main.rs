@@ -223,9 +223,9 @@ struct ProgramArgs {
     /// wide kernels are written for so far (docs/cpu-lanes.md)]. GPUs always take 1.
     #[arg(long, value_name = "N", value_parser = parse_lanes)]
     lanes: Option<u32>,
-    /// The tree meshes are walked through: kd (a SAH kd-tree) or wide (an 8-wide BVH)
-    /// [default: wide on a CPU, kd on a GPU]. A CPU's wide program (--lanes above 1) takes
-    /// only wide.
+    /// The tree meshes are walked through: kd (a SAH kd-tree), bvh2 (a binary BVH) or wide (an
+    /// 8-wide BVH) [default: bvh2 on a GPU, wide on a CPU]. A CPU's wide program (--lanes above
+    /// 1) takes only wide.
     #[arg(long, value_name = "TREE")]
     mesh_tree: Option<MeshTree>,
     /// Always build the program from source; neither read nor write the program cache.

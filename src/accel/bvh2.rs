@@ -4,9 +4,11 @@
 //! The binned-SAH binary BVH ([`super::binary_bvh`]) stored in Aila and Laine's layout
 //! ("Understanding the efficiency of ray traversal on GPUs", HPG 2009): a node holds both its
 //! children's boxes and references, so one step of the walk reads one node and tests both
-//! boxes. Nodes are in depth-first order, a node's first inner child right after it. On an
-//! H100 it walked case1 4% faster than the SAH kd-tree without light sampling (2% with it), the
-//! dragon room 12% (4%), at leaves of [`MAX_LEAF`] (BENCHMARKS.md, "A binary BVH for GPUs").
+//! boxes. Nodes are in depth-first order, a node's first inner child right after it. Leaves
+//! of up to [`MAX_LEAF`] triangles hold their vertices (src/shapes/mesh.rs,
+//! `push_bvh2_triangles`). On an H100 it walked case1 about 6% faster than the SAH kd-tree
+//! without light sampling (2 to 4% with it), the dragon room 15% (7%) (BENCHMARKS.md, "A binary
+//! BVH for GPUs" and "A binary BVH's triangles in its leaves").
 
 use super::binary_bvh::{Binary, FlatBvh, Flatten};
 use crate::contract::{Bvh2Node, WIDE_BVH_EMPTY};

@@ -1,6 +1,6 @@
 //! The scene as the device reads it, without a device: the f32 structs of [`crate::contract`]
 //! in [`PackedScene`]'s arrays (materials and their texture maps, each kind's objects,
-//! transforms, meshes with their kd-trees or 8-wide BVHs, the object table and the BVH over it)
+//! transforms, meshes with their trees (kd-trees, binary or 8-wide BVHs), the object table and the BVH over it)
 //! and the light list ([`lights`]). Each kind of object packs itself into these arrays
 //! (`crate::shapes`, the layer above), and the whole scene is packed by `PackedScene::new`
 //! (`crate::scene::packing`, above that); this module holds what the kinds share. Below the
@@ -48,7 +48,7 @@ pub struct MeshInfo {
     pub duplicates: usize,
     pub instances: usize,
     pub build_time: Duration,
-    /// Device bytes of its vertices, normals, triangles and kd-tree (or wide BVH).
+    /// Device bytes of its vertices, normals, triangles and tree.
     pub bytes: usize,
 }
 

@@ -112,8 +112,8 @@ pub use crate::accel::MeshTree;
 impl MeshTree {
     /// The tree a device walks by default: the 8-wide BVH on a CPU, whose scalar programs it
     /// speeds as it does the wide ones (PoCL, 2 cores: case1 22 to 32% less user CPU, the
-    /// dragon room 29%); the binary BVH on a GPU, which walked case1 2 to 4% faster than the
-    /// kd-tree and the dragon room 4 to 12% (H100, BENCHMARKS.md, "A binary BVH for GPUs"),
+    /// dragon room 29%); the binary BVH on a GPU, which walked case1 2 to 6% faster than the
+    /// kd-tree and the dragon room 7 to 15% (H100, BENCHMARKS.md, "A binary BVH for GPUs"),
     /// where the 8-wide BVH walked as written for the CPU was 9 to 43% slower than the kd-tree
     /// with light sampling ("The 8-wide BVH everywhere on a CPU").
     pub fn default_on(device: &DeviceDescription) -> MeshTree {

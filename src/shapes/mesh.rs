@@ -1,7 +1,8 @@
 //! Triangle meshes (kernels/triangle.h, kdtree.h, bvh2.h, wide_bvh.h): each OBJ file loaded
 //! once for each way it is placed, its tree (a GPU's binary BVH, a CPU's 8-wide BVH, or a
-//! kd-tree: `PackedScene::mesh_tree`) built once however many instances use it, and one instance an object; an emitting mesh's triangles that some path
-//! can see are light-list entries.
+//! kd-tree: `PackedScene::mesh_tree`) built once however many instances use it, and one
+//! instance an object; an emitting mesh's triangles that some path can see are light-list
+//! entries.
 
 use super::{HostShape, MeshFiles, ObjectPlace, Placement, ShapeSyntax, all_finite, transform_box};
 use crate::accel::aabb::Aabb;
