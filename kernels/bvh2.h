@@ -3,8 +3,8 @@
  * chooses).
  *
  * Reads: the mesh's Bvh2Node array and its leaves' Bvh2Triangles (types.h; in the kd_nodes and
- * kd_indices buffers). Writes: nothing. The ray is in the
- * mesh's object space (direction not normalised).
+ * kd_indices buffers). Writes: nothing. The ray is in the mesh's object space (direction not
+ * normalised).
  * Why: Aila and Laine's walk ("Understanding the efficiency of ray traversal on GPUs", HPG
  * 2009). A node holds both children's boxes, so a step reads one node (four float4) and tests
  * both; the ray goes on into the nearer child entered and pushes the other. Descents run in a
