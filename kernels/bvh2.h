@@ -87,7 +87,7 @@ inline bool bvh2_intersect(__global const MeshDesc* m, __global const Bvh2Node* 
                 node = stack[--top];
             }
         }
-        found |= bvh2_leaf_intersect(triangles + (node & 0x0FFFFFFFu), ((node >> 28) & 7u) + 1u,
+        found |= bvh2_leaf_intersect(triangles + bvh_leaf_first(node), bvh_leaf_count(node),
                                      &ray, t, prim, b1, b2);
         if (top == 0) {
             return found;

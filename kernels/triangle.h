@@ -97,6 +97,16 @@ inline bool leaf_triangle(const WatertightRay* ray, float3 a, float3 b, float3 c
     return true;
 }
 
+/* A BVH leaf reference's parts (WIDE_BVH_LEAF | (count - 1) << 28 | first, types.h; the
+ * binary and the 8-wide BVH's): its first entry and its count of triangles. */
+inline uint bvh_leaf_first(uint c) {
+    return c & 0x0FFFFFFFu;
+}
+
+inline uint bvh_leaf_count(uint c) {
+    return ((c >> 28) & 7u) + 1u;
+}
+
 /* Updates *t, *prim, *b1, *b2 with the nearest hit in (0, *t) of the ray with the `count`
  * triangles of a tree leaf's slots (LEAF_SLOT words each: the vertices' numbers in the scene's
  * vertex array, then the triangle's number in its mesh; src/shapes/mesh.rs). A slot is read at

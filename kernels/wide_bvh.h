@@ -31,13 +31,9 @@ inline void prefetch_lines(__global const char* p, uint bytes) {
 }
 #endif
 
-/* A leaf child's slots (WIDE_BVH_LEAF | (count - 1) << 28 | first slot, types.h) and count. */
+/* A leaf child's slots (bvh_leaf_first, triangle.h). */
 inline __global const uint* wide_leaf_slots(__global const uint* indices, uint c) {
-    return indices + LEAF_SLOT * (c & 0x0FFFFFFFu);
-}
-
-inline uint wide_leaf_count(uint c) {
-    return ((c >> 28) & 7u) + 1u;
+    return indices + LEAF_SLOT * bvh_leaf_first(c);
 }
 
 /* At most seven children wait per level of the path from the root, and the host's trees have
@@ -59,7 +55,7 @@ inline bool wide_bvh_intersect(__global const MeshDesc* m, __global const WideBv
     bool found = false;
     while (true) {
         if ((node & WIDE_BVH_LEAF) != 0u) {
-            found |= slots_intersect(wide_leaf_slots(indices, node), wide_leaf_count(node),
+            found |= slots_intersect(wide_leaf_slots(indices, node), bvh_leaf_count(node),
                                      vertices, &ray, t, prim, b1, b2);
         } else {
             __global const WideBvhNode* n = nodes + node;
@@ -94,7 +90,7 @@ inline bool wide_bvh_intersect(__global const MeshDesc* m, __global const WideBv
                     prefetch_lines((__global const char*)(nodes + c), sizeof(WideBvhNode));
                 } else {
                     prefetch_lines((__global const char*)wide_leaf_slots(indices, c),
-                                   4u * LEAF_SLOT * wide_leaf_count(c));
+                                   4u * LEAF_SLOT * bvh_leaf_count(c));
                 }
             }
 #endif

@@ -125,15 +125,27 @@ impl MeshTree {
     }
 }
 
+impl MeshTree {
+    /// Every tree, in the order `--mesh-tree`'s help names them.
+    const ALL: [MeshTree; 3] = [MeshTree::Kd, MeshTree::Bvh2, MeshTree::Wide];
+
+    /// Its name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            MeshTree::Kd => "kd",
+            MeshTree::Bvh2 => "bvh2",
+            MeshTree::Wide => "wide",
+        }
+    }
+}
+
 impl std::str::FromStr for MeshTree {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
-        match s {
-            "kd" => Ok(MeshTree::Kd),
-            "bvh2" => Ok(MeshTree::Bvh2),
-            "wide" => Ok(MeshTree::Wide),
-            other => Err(format!("unknown mesh tree `{other}`: use kd, bvh2 or wide")),
-        }
+        MeshTree::ALL
+            .into_iter()
+            .find(|tree| tree.name() == s)
+            .ok_or_else(|| format!("unknown mesh tree `{s}`: use kd, bvh2 or wide"))
     }
 }
 
@@ -653,11 +665,11 @@ fn program_shape(
     };
     let lanes = base_features.wide_lanes(&device.description, options.lanes);
     let mesh_tree = match options.mesh_tree {
-        Some(tree @ (MeshTree::Kd | MeshTree::Bvh2)) if lanes > 1 => {
-            let name = if tree == MeshTree::Kd { "kd" } else { "bvh2" };
+        Some(tree) if tree != MeshTree::Wide && lanes > 1 => {
             return Err(Error::Invalid(format!(
                 "a wide program ({lanes} lanes) walks meshes through 8-wide BVHs: \
-                 --mesh-tree {name} takes --lanes 1"
+                 --mesh-tree {} takes --lanes 1",
+                tree.name()
             )));
         }
         Some(tree) => tree,

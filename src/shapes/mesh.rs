@@ -200,16 +200,12 @@ fn push_mesh(packed: &mut PackedScene, mesh: TriangleMesh) -> Result<u32> {
         path: mesh.path.clone(),
         message: format!("the scene's meshes exceed 2^32 {what}"),
     };
-    let first_node = match packed.mesh_tree {
-        MeshTree::Kd => packed.kd_nodes.len(),
-        MeshTree::Bvh2 => packed.bvh2_nodes.len(),
-        MeshTree::Wide => packed.wide_nodes.len(),
+    let (first_node, first_index) = match packed.mesh_tree {
+        MeshTree::Kd => (packed.kd_nodes.len(), packed.kd_indices.len()),
+        MeshTree::Bvh2 => (packed.bvh2_nodes.len(), packed.bvh2_triangles.len()),
+        MeshTree::Wide => (packed.wide_nodes.len(), packed.kd_indices.len()),
     };
     let first_node = u32::try_from(first_node).map_err(|_| too_big("tree nodes"))?;
-    let (first_index, index_bytes) = match packed.mesh_tree {
-        MeshTree::Bvh2 => (packed.bvh2_triangles.len(), size_of::<Bvh2Triangle>()),
-        MeshTree::Kd | MeshTree::Wide => (packed.kd_indices.len(), 4),
-    };
     let first_index = u32::try_from(first_index).map_err(|_| too_big("indices"))?;
     let bvh_too_big = |what: &str| Error::Mesh {
         path: mesh.path.clone(),
@@ -218,26 +214,31 @@ fn push_mesh(packed: &mut PackedScene, mesh: TriangleMesh) -> Result<u32> {
              with a kd-tree)"
         ),
     };
-    let (bounds, node_bytes) = match packed.mesh_tree {
+    // The tree's bounds and device bytes: its nodes and its leaves' entries.
+    let slot_bytes = 4 * contract::LEAF_SLOT as usize;
+    let (bounds, tree_bytes) = match packed.mesh_tree {
         MeshTree::Kd => {
             let tree = KdTree::build(&mesh.positions, &mesh.triangles, &KdParams::default());
             packed.kd_nodes.extend(&tree.nodes);
             push_slots(packed, &mesh, &tree.indices).map_err(|_| too_big("vertices"))?;
-            (tree.bounds, tree.nodes.len() * size_of::<KdNode>())
+            let bytes = tree.nodes.len() * size_of::<KdNode>() + tree.indices.len() * slot_bytes;
+            (tree.bounds, bytes)
         }
         MeshTree::Bvh2 => {
             let tree = Bvh2::build(&mesh.positions, &mesh.triangles)
                 .ok_or_else(|| bvh_too_big("a binary BVH"))?;
             packed.bvh2_nodes.extend(&tree.nodes);
             push_bvh2_triangles(packed, &mesh, &tree.indices);
-            (tree.bounds, tree.nodes.len() * size_of::<Bvh2Node>())
+            let leaves = tree.indices.len() * size_of::<Bvh2Triangle>();
+            (tree.bounds, tree.nodes.len() * size_of::<Bvh2Node>() + leaves)
         }
         MeshTree::Wide => {
             let tree = WideBvh::build(&mesh.positions, &mesh.triangles)
                 .ok_or_else(|| bvh_too_big("an 8-wide BVH"))?;
             packed.wide_nodes.extend(&tree.nodes);
             push_slots(packed, &mesh, &tree.indices).map_err(|_| too_big("vertices"))?;
-            (tree.bounds, tree.nodes.len() * size_of::<WideBvhNode>())
+            let leaves = tree.indices.len() * slot_bytes;
+            (tree.bounds, tree.nodes.len() * size_of::<WideBvhNode>() + leaves)
         }
     };
     let (lo, hi) = bounds.to_f32_outward();
@@ -250,12 +251,7 @@ fn push_mesh(packed: &mut PackedScene, mesh: TriangleMesh) -> Result<u32> {
         lo,
         hi,
     };
-    let leaf_entries = match packed.mesh_tree {
-        MeshTree::Bvh2 => packed.bvh2_triangles.len(),
-        MeshTree::Kd | MeshTree::Wide => packed.kd_indices.len(),
-    };
-    let bytes = node_bytes
-        + (leaf_entries - first_index as usize) * index_bytes
+    let bytes = tree_bytes
         + mesh.triangles.len() * 12
         + mesh.positions.len() * 12
         + mesh.normals.as_ref().map_or(0, |n| n.len() * 12);
