@@ -3,7 +3,7 @@
 //! read the film back.
 //!
 //! Each launch covers a band of rows and a run of sample indices, sized from the measured rate
-//! so that one launch takes about `launch_target` (by default 400 ms on a GPU, 1000 ms on one
+//! so that one launch takes about `launch_target` (by default 400 ms on a GPU, 4000 ms on one
 //! without a kernel watchdog, 100 ms on a CPU: [`default_launch_target`]): long enough to keep
 //! a GPU busy, short enough that a display GPU's watchdog (about 2 s) never fires. Every pass
 //! ends with all pixels at the same sample count, and the kernel adds samples one at a time
@@ -473,23 +473,26 @@ pub struct Renderer<'d> {
 }
 
 /// The launch target on `device` when the options leave it ([`RenderOptions::launch_target`]):
-/// 100 ms on a CPU; on a GPU 1000 ms where the driver says it has no kernel watchdog
+/// 100 ms on a CPU; on a GPU 4000 ms where the driver says it has no kernel watchdog
 /// ([`DeviceDescription::watchdog`]: a compute GPU), else 400 ms. A GPU's work-item renders its
 /// pixel's samples of a launch one after another, a lane whose path has ended starting the next
-/// (path regeneration, kernels/pathtracer.cl): with few samples a launch, lanes idle until the
-/// longest path of their warp ends, and every pass ends in an error estimate and a wait. On the
-/// H200 400 ms against 100 (BENCHMARKS.md): case0 (2560x1440, 64 samples) with light sampling
-/// 2.73 s against 3.70, without 0.64 against 0.80; case1 without, 2.74 against 3.30; and 1000
-/// ms against 400 lowered relMSE × s by 2 to 17% on every showcase and GPU-heavy scene (case1
-/// with light sampling 17%, case0 14%; 1600 ms gained at most 4% more, for longer waits at a
-/// time limit and between progress lines). Launches sized by the slowest of the pass before
-/// stay well within a display watchdog's 2 s at 400 ms. A CPU keeps 100 ms, not measured at
-/// 400: a CPU's trial sizes its launches by the target too (`render_rows`), and its timing was
-/// tuned at 100.
+/// (path regeneration, kernels/pathtracer.cl): at the end of a launch its lanes idle until the
+/// longest path of their warp ends, about one path's time a launch, and every pass ends in an
+/// error estimate and a wait. On the H200 400 ms against 100 (BENCHMARKS.md): case0
+/// (2560x1440, 64 samples) with light sampling 2.73 s against 3.70, without 0.64 against 0.80;
+/// case1 without, 2.74 against 3.30; and 1000 ms against 400 lowered relMSE × s by 2 to 17% on
+/// every showcase and GPU-heavy scene (case1 with light sampling 17%, case0 14%). On the H100
+/// at the original's sizes and samples, 4000 ms against 1000 rendered case1 in 25.26 s against
+/// 26.04 (-3.0%) and case3 in 15.87 against 16.37 (-3.1%), 2500 ms in 25.35 and 15.97; on renders
+/// of 160 and 250 samples 12000 ms gained under 0.5% on 5000. The price is the wait for the launch in flight:
+/// at a time limit, a target error, a progress line or Ctrl-C, up to 4 s on a GPU that drives
+/// no display. Launches sized by the slowest of the pass before stay well within a display
+/// watchdog's 2 s at 400 ms. A CPU keeps 100 ms, not measured at 400: a CPU's trial sizes its
+/// launches by the target too (`render_rows`), and its timing was tuned at 100.
 pub fn default_launch_target(device: &DeviceDescription) -> Duration {
     Duration::from_millis(match (device.kind.as_str(), device.watchdog) {
         ("CPU", _) => 100,
-        (_, Some(false)) => 1000,
+        (_, Some(false)) => 4000,
         _ => 400,
     })
 }
@@ -515,11 +518,18 @@ impl LaunchPlan {
             }
         } else {
             LaunchPlan {
-                rows: ((budget / f64::from(width)) as u32).clamp(1, height),
+                rows: band_rows(rate, target, width, 1).min(height),
                 spp: 1,
             }
         }
     }
+}
+
+/// The rows of a band of `count` samples a pixel that take `target` seconds at `rate` pixel
+/// samples per second on an image `width` wide: at least one.
+fn band_rows(rate: f64, target: f64, width: u32, count: u32) -> u32 {
+    (rate * target / (f64::from(width) * f64::from(count.max(1)))).clamp(1.0, f64::from(u32::MAX))
+        as u32
 }
 
 /// What the render loop does after a pass ([`Renderer::render_with`]).
@@ -1300,16 +1310,21 @@ impl<'d> Renderer<'d> {
         Ok(self.trace(&mut pass, false)?.choice)
     }
 
-    /// One pass: every band of rows of `plan`, each launched with `count` samples from the
-    /// film's sample `spp_done` on; the slowest launch's rate (pixel samples per second) and the
-    /// launches made.
+    /// One pass: the image's rows in bands, each launched with `count` samples from the film's
+    /// sample `spp_done` on; the slowest launch's rate (pixel samples per second) and the
+    /// launches made. The first band has `plan`'s rows, each later one as many as the launch
+    /// target affords at the slowest rate so far: the first pass's bands of one sample, sized
+    /// for a probe, would otherwise cover the image in dozens of launches too narrow to fill a
+    /// GPU (case1: 90 launches of 16 rows).
     fn run_pass(&mut self, plan: LaunchPlan, spp_done: u32, count: u32) -> Result<(f64, u32)> {
         let (width, height) = (self.width(), self.height());
+        let target = self.launch_target();
         let mut rate = f64::INFINITY;
         let mut launches = 0;
         let mut row = 0;
+        let mut band = plan.rows;
         while row < height {
-            let rows = plan.rows.min(height - row);
+            let rows = band.min(height - row);
             let t0 = Instant::now();
             self.launch(
                 Rows::band(row, rows),
@@ -1320,6 +1335,7 @@ impl<'d> Renderer<'d> {
             rate = rate.min(rows as f64 * width as f64 * count as f64 / secs);
             launches += 1;
             row += rows;
+            band = band_rows(rate, target, width, count);
         }
         Ok((rate, launches))
     }
@@ -1576,7 +1592,7 @@ mod tests {
         };
         assert_eq!(ms("CPU", None), Duration::from_millis(100));
         assert_eq!(ms("CPU", Some(false)), Duration::from_millis(100));
-        assert_eq!(ms("GPU", Some(false)), Duration::from_millis(1000));
+        assert_eq!(ms("GPU", Some(false)), Duration::from_millis(4000));
         assert_eq!(ms("GPU", Some(true)), Duration::from_millis(400));
         assert_eq!(ms("GPU", None), Duration::from_millis(400));
     }
