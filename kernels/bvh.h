@@ -16,7 +16,7 @@
 
 /* Visits the objects the ray may hit, calling object_intersect(scene, ref, o, d, hit). */
 inline void bvh_intersect(const Scene* sc, float3 o, float3 d, Hit* hit) {
-    const float3 inv_d = 1.0f / d;
+    const float3 inv_d = slab_inverse(d);
     uint stack[BVH_STACK];
     int top = 0;
     if (sc->params->num_bvh_nodes > 0u) {

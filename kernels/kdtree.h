@@ -28,7 +28,7 @@ inline bool kdtree_intersect(__global const MeshDesc* m, __global const KdNode* 
     const float3 inv_d = 1.0f / d;
     float t0 = 0.0f;
     float t1 = *t;
-    if (!aabb_clip(vload3(0, m->lo), vload3(0, m->hi), o, inv_d, &t0, &t1)) {
+    if (!aabb_clip(vload3(0, m->lo), vload3(0, m->hi), o, slab_inverse(d), &t0, &t1)) {
         return false;
     }
     __global const KdNode* nodes = kd_nodes + m->first_node;

@@ -122,7 +122,9 @@ inline void mesh_object_intersect(const Scene* sc, uint index, LFloat3 o, LFloat
     lfloat t0 = 0.0f, t1 = hit->t;
     const lmask enters = hit->t > 0.0f &&
                          aabb_clip_lanes(vload3(0, m->lo), vload3(0, m->hi), lo,
-                                         make_lfloat3(1.0f / ld.x, 1.0f / ld.y, 1.0f / ld.z),
+                                         make_lfloat3(slab_inverse_lanes(ld.x),
+                                                      slab_inverse_lanes(ld.y),
+                                                      slab_inverse_lanes(ld.z)),
                                          &t0, &t1);
     for (uint lane = 0u; lane < CLPT_LANES; ++lane) {
         if (!lane_on(enters, lane)) {

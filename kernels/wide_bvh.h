@@ -46,7 +46,7 @@ inline bool wide_bvh_intersect(__global const MeshDesc* m, __global const WideBv
                                float3 o, float3 d, float* t, uint* prim, float* b1, float* b2) {
     __global const WideBvhNode* nodes = all_nodes + m->first_node;
     __global const uint* indices = all_indices + m->first_index;
-    const float3 inv_d = 1.0f / d;
+    const float3 inv_d = slab_inverse(d);
     const WatertightRay ray = watertight_setup(o, d);
     uint todo[WIDE_BVH_STACK];
     float todo_t[WIDE_BVH_STACK];
