@@ -5,7 +5,8 @@
 # info        the GPU, the OpenCL devices, every scene built and rendered once by NVIDIA's compiler
 # tests       the kernel tests on the GPU (CLPT_DEVICE=NVIDIA)
 # estimators  tools/estimators.sh over the showcases at defaults and fixed settings (about 8 minutes
-#             on the H200; the rest below in another call)
+#             on the H200; the rest below in another call); SETTINGS=auto: the defaults alone
+#             (about 1.5 minutes: with `hashes`, a new build's check in one call)
 # scenes      tools/estimators.sh over case2 and scenes/ at defaults and all six fixed settings
 # films       checkpoints, then devices:
 #   checkpoints  the cost of writing a film file, and of checkpoints in a render
@@ -71,7 +72,7 @@ estimators() {
   # roulette below 1 (the `--no-nee` of the issue), and on and off with roulette below 0.3
   # (0.5 lost by 5 to 13% in every earlier run); light sampling costs 3.5 to 5 times a path
   # there, so this takes about 8 minutes.
-  SETTINGS="auto off:1 on:0.3 off:0.3" tools/estimators.sh ./clpt $OUT/estimators.csv \
+  SETTINGS="${SETTINGS:-auto off:1 on:0.3 off:0.3}" tools/estimators.sh ./clpt $OUT/estimators.csv \
     $seed/case0_texture.txt:800 $seed/case3_wineglass.txt:1000 $seed/case1_dof_mesh.txt:800
 }
 
