@@ -1,9 +1,9 @@
 //! Meshes and acceleration on the device: watertightness (1e6 rays aimed at shared edges and
 //! vertices of closed meshes never pass through, nor rays along the axes or from afar), the
-//! kd-tree and BVH traversal against brute
-//! force in f64 (generated meshes; the Stanford dragon when ../shared/seed is there), transforms
-//! of spheres, planes and meshes against f64 for every op and compositions, instancing, and bad
-//! OBJ input (errors at their line, file limits, directories, copies of triangles dropped).
+//! kd-tree and BVH traversal against brute force in f64 (generated meshes; the Stanford dragon
+//! when ../shared/seed is there), transforms of spheres, planes and meshes against f64 for every
+//! op and compositions, instancing, and bad OBJ input (errors at their line, file limits,
+//! directories, copies of triangles dropped).
 
 mod common;
 
