@@ -20,9 +20,10 @@
  * slab [-huge, +huge] when o lies within it or on its face, [0, +huge] or [-huge, 0] at a face,
  * and beyond every t a scene reaches when o lies outside it (by more than 2^-80 of a t). Never
  * NaN: no interval is emptied by one. */
+#define SLAB_INVERSE(d) copysign(fmin(fabs(1.0f / (d)), 0x1.0p80f), (d))
+
 inline float3 slab_inverse(float3 d) {
-    const float3 inv = 1.0f / d;
-    return copysign(fmin(fabs(inv), 0x1.0p80f), inv);
+    return SLAB_INVERSE(d);
 }
 
 /* Clips [*t0, *t1] to the part of o + t d inside [lo, hi] (inv_d: slab_inverse(d)); false if
@@ -42,8 +43,7 @@ inline bool aabb_clip(float3 lo, float3 hi, float3 o, float3 inv_d, float* t0, f
 #if CLPT_WIDE && CLPT_MESHES
 /* slab_inverse of one component in each lane. */
 inline lfloat slab_inverse_lanes(lfloat d) {
-    const lfloat inv = 1.0f / d;
-    return copysign(fmin(fabs(inv), 0x1.0p80f), inv);
+    return SLAB_INVERSE(d);
 }
 
 /* aabb_clip in each lane (lanes.h), with the same roundings: the lanes whose ray meets the

@@ -25,6 +25,7 @@ typedef struct KdTodo {
 inline bool kdtree_intersect(__global const MeshDesc* m, __global const KdNode* kd_nodes,
                              __global const uint* kd_indices, __global const float* vertices, float3 o, float3 d, float* t,
                              uint* prim, float* b1, float* b2) {
+    /* The split planes' t takes the plain inverse: the walk below handles its infinities. */
     const float3 inv_d = 1.0f / d;
     float t0 = 0.0f;
     float t1 = *t;

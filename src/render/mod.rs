@@ -483,12 +483,12 @@ pub struct Renderer<'d> {
 /// case1 without, 2.74 against 3.30; and 1000 ms against 400 lowered relMSE × s by 2 to 17% on
 /// every showcase and GPU-heavy scene (case1 with light sampling 17%, case0 14%). On the H100
 /// at the original's sizes and samples, 4000 ms against 1000 rendered case1 in 25.26 s against
-/// 26.04 (-3.0%) and case3 in 15.87 against 16.37 (-3.1%), 2500 ms in 25.35 and 15.97; on renders
-/// of 160 and 250 samples 12000 ms gained under 0.5% on 5000. The price is the wait for the launch in flight:
-/// at a time limit, a target error, a progress line or Ctrl-C, up to 4 s on a GPU that drives
-/// no display. Launches sized by the slowest of the pass before stay well within a display
-/// watchdog's 2 s at 400 ms. A CPU keeps 100 ms, not measured at 400: a CPU's trial sizes its
-/// launches by the target too (`render_rows`), and its timing was tuned at 100.
+/// 26.04 (-3.0%) and case3 in 15.87 against 16.37 (-3.1%), 2500 ms in 25.35 and 15.97; on
+/// renders of 160 and 250 samples 12000 ms gained under 0.5% on 5000. The price is the wait for
+/// the launch in flight at a time limit, a target error, a progress line or Ctrl-C: up to 4 s on
+/// a GPU that drives no display. Launches sized by the slowest of the pass before stay well
+/// within a display watchdog's 2 s at 400 ms. A CPU keeps 100 ms, not measured at 400: a CPU's
+/// trial sizes its launches by the target too (`render_rows`), and its timing was tuned at 100.
 pub fn default_launch_target(device: &DeviceDescription) -> Duration {
     Duration::from_millis(match (device.kind.as_str(), device.watchdog) {
         ("CPU", _) => 100,
