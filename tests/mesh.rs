@@ -342,8 +342,8 @@ fn rays_at_shared_edges_and_vertices_never_pass_through() {
 
 /// The box tests' corner cases: rays along an axis, whose inverse direction is infinite on the
 /// other two and which lie in the planes of the boxes' faces where they meet a vertex
-/// (kernels/aabb.h, slab_inverse), and origins 10^3 to 10^5 away, whose slab distances are
-/// large beside the boxes.
+/// (kernels/aabb.h, slab_inverse), and origins 10^3 to 10^5 away, where the binary BVH's
+/// o * (1 / d) carries a large absolute error (kernels/bvh2.h, bvh2_slabs).
 #[test]
 fn rays_along_axes_and_from_afar_never_pass_through() {
     let dir = temp_dir("watertight-axes");
