@@ -218,6 +218,38 @@ fn device(platform: &str, is_gpu: bool, width: u32) -> clpt::device::DeviceDescr
         is_gpu,
         native_float_width: width,
         watchdog: None,
+        nv_compiler_options: false,
+    }
+}
+
+/// The register cap is an NVIDIA compiler option: only a device whose compiler names
+/// cl_nv_compiler_options is given it (another compiler would refuse the build), and the
+/// program switches follow it unchanged.
+#[test]
+fn only_nvidia_compilers_get_the_register_cap() {
+    let cap = format!("-cl-nv-maxrregcount={}", program::NV_MAX_REGISTERS);
+    let defines = [("CLPT_NEE", "1".to_string())];
+    let nvidia = clpt::device::DeviceDescription {
+        nv_compiler_options: true,
+        ..device("NVIDIA CUDA", true, 1)
+    };
+    let options = program::build_options(&nvidia, &defines);
+    assert_eq!(
+        options,
+        format!("-cl-kernel-arg-info {cap} -DCLPT_NEE=1"),
+        "{options}"
+    );
+    for other in [
+        device("Portable Computing Language", false, 16),
+        device("AMD Accelerated Parallel Processing", true, 1),
+        device("NVIDIA CUDA", true, 1),
+    ] {
+        let options = program::build_options(&other, &defines);
+        assert_eq!(
+            options, "-cl-kernel-arg-info -DCLPT_NEE=1",
+            "{}",
+            other.platform
+        );
     }
 }
 

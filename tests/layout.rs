@@ -143,7 +143,13 @@ fn kernel_arguments_bound_under_a_wrong_name_are_refused() {
             "__kernel void k(__global float* out, uint count) { out[0] = (float)count; }\n",
         )
         .unwrap();
-    let built = program::build(&device, source, program::build_options(&[]), None).unwrap();
+    let built = program::build(
+        &device,
+        source,
+        program::build_options(&device.description, &[]),
+        None,
+    )
+    .unwrap();
     let out = common::output::<f32>(&device, 1);
     let bind = |first: &'static str, second: &'static str| {
         NamedArgs::new(&built.program, "k", &device.queue)
@@ -218,7 +224,7 @@ fn every_header_builds_on_its_own() {
                 .unwrap();
             let defines: Vec<(&str, String)> =
                 defines.iter().map(|(k, v)| (*k, v.to_string())).collect();
-            let options = program::build_options(&defines);
+            let options = program::build_options(&device.description, &defines);
             if let Err(e) = program::build(&device, source, options, None) {
                 let e = e.to_string();
                 let first = e.lines().find(|l| l.contains("error")).unwrap_or(&e);

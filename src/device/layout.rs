@@ -48,7 +48,12 @@ pub fn verify(
     use crate::Error;
     let expected = expected();
     let source = sources.expand_text("layout_probe.cl", &probe_source())?;
-    let built = super::program::build(device, source, super::program::build_options(&[]), None)?;
+    let built = super::program::build(
+        device,
+        source,
+        super::program::build_options(&device.description, &[]),
+        None,
+    )?;
     let out = ocl::Buffer::<u32>::builder()
         .queue(device.queue.clone())
         .len(expected.len())

@@ -60,6 +60,9 @@ pub struct DeviceDescription {
     /// CL_DEVICE_KERNEL_EXEC_TIMEOUT_NV (cl_nv_device_attribute_query); `None` where the
     /// device does not say.
     pub watchdog: Option<bool>,
+    /// Whether the compiler takes NVIDIA's `-cl-nv-*` build options (cl_nv_compiler_options):
+    /// the register cap of [`program::build_options`].
+    pub nv_compiler_options: bool,
 }
 
 impl fmt::Display for DeviceDescription {
@@ -139,6 +142,9 @@ fn describe(index: usize, platform: &ocl::Platform, device: &ocl::Device) -> Dev
             _ => 1,
         },
         watchdog: watchdog(device),
+        nv_compiler_options: info_string(device, Info::Extensions)
+            .split_whitespace()
+            .any(|e| e == "cl_nv_compiler_options"),
     }
 }
 
@@ -284,7 +290,8 @@ fn sub_device(device: ocl::Device, units: u32) -> Option<ocl::Device> {
 }
 
 /// A description for the library's unit tests: a device of `kind` ("CPU" or "GPU") named
-/// `name`, with no memory, one lane and no watchdog answer; tests change the fields they use.
+/// `name`, with no memory, one lane, no watchdog answer and no NVIDIA compiler options; tests
+/// change the fields they use.
 #[cfg(test)]
 pub(crate) fn test_description(kind: &str, name: &str) -> DeviceDescription {
     DeviceDescription {
@@ -301,6 +308,7 @@ pub(crate) fn test_description(kind: &str, name: &str) -> DeviceDescription {
         is_gpu: kind == "GPU",
         native_float_width: 1,
         watchdog: None,
+        nv_compiler_options: false,
     }
 }
 

@@ -266,12 +266,38 @@ fn include_target(line: &str) -> Option<std::result::Result<&str, ()>> {
     )
 }
 
-/// Every compiler option clpt passes, from one place. No fast-math: the ray-spawning error
-/// bounds (kernels/ray.h) assume IEEE rounding. `-cl-kernel-arg-info` keeps the parameters'
-/// names in the program, against which the host's argument names are checked
-/// ([`super::kernel::NamedArgs`]).
-pub fn build_options(defines: &[(&str, String)]) -> String {
+/// The registers a work-item may use where the compiler takes NVIDIA's options
+/// (`-cl-nv-maxrregcount`). Left alone, NVIDIA's compiler gave the path tracer 126 registers
+/// (case1's program) to 196 (the dragon room's with light sampling), so that an SM kept 12 to
+/// 16 warps of its 64 to hide memory behind. Capped at 64 it keeps 32, and spills a few
+/// hundred bytes to the L1 cache. On an H100, light sampling off unless named, seconds at
+/// none / 128 / 96 / 80 / 64 / 56 / 48 / 40 / 32 registers (BENCHMARKS.md, "A register cap"):
+/// - case1 (160 spp): 5.08 / 5.05 / 4.74 / 4.46 / 4.04 / 3.96 / 4.05 / 4.08 / 5.87;
+/// - case3 (250): 3.90 / 3.71 / 3.55 / 3.43 / 2.94 / 2.81 / 2.85 / 3.20 / 3.97;
+/// - case0 (200): 1.61 / 1.59 / 1.50 / 1.47 / 1.50 / 1.62 / 1.96 / 2.63 / 4.16;
+/// - the dragon room with light sampling (256): 2.23 / 1.91 / 1.85 / 1.79 / 1.68 / 1.64 /
+///   1.61 / 1.55 / 1.73;
+/// - scenes/lights.txt with light sampling (256): 3.19 / 2.86 / 2.79 / 2.56 / 2.35 / 2.25 /
+///   2.25 / 2.12 / 2.11.
+///
+/// 64 is 7 to 27% faster than no cap everywhere, and within 5% of the best cap without light
+/// sampling; lower caps lose up to 2.6 times on case0. The programs with light sampling ran
+/// 8 and 11% faster still at 40, on the two scenes measured. The images are the same bits at
+/// every cap: registers change where values live, not the arithmetic.
+pub const NV_MAX_REGISTERS: u32 = 64;
+
+/// Every compiler option clpt passes for `device`, from one place. No fast-math: the
+/// ray-spawning error bounds (kernels/ray.h) assume IEEE rounding. `-cl-kernel-arg-info` keeps
+/// the parameters' names in the program, against which the host's argument names are checked
+/// ([`super::kernel::NamedArgs`]). NVIDIA's compiler also takes the register cap
+/// [`NV_MAX_REGISTERS`].
+pub fn build_options(device: &super::DeviceDescription, defines: &[(&str, String)]) -> String {
     std::iter::once("-cl-kernel-arg-info".to_string())
+        .chain(
+            device
+                .nv_compiler_options
+                .then(|| format!("-cl-nv-maxrregcount={NV_MAX_REGISTERS}")),
+        )
         .chain(defines.iter().map(|(k, v)| format!("-D{k}={v}")))
         .collect::<Vec<_>>()
         .join(" ")
@@ -393,7 +419,7 @@ pub fn build_entry(
     build(
         device,
         sources.expand(entry, defines)?,
-        build_options(defines),
+        build_options(&device.description, defines),
         cache,
     )
 }
