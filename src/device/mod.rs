@@ -123,6 +123,7 @@ fn describe(index: usize, platform: &ocl::Platform, device: &ocl::Device) -> Dev
         Ok(InfoResult::MaxMemAllocSize(n)) => n,
         _ => 0,
     };
+    let extensions = info_string(device, Info::Extensions);
     DeviceDescription {
         index,
         platform: platform
@@ -141,8 +142,8 @@ fn describe(index: usize, platform: &ocl::Platform, device: &ocl::Device) -> Dev
             Ok(InfoResult::NativeVectorWidthFloat(n)) => n,
             _ => 1,
         },
-        watchdog: watchdog(device),
-        nv_compiler_options: info_string(device, Info::Extensions)
+        watchdog: watchdog(device, &extensions),
+        nv_compiler_options: extensions
             .split_whitespace()
             .any(|e| e == "cl_nv_compiler_options"),
     }
@@ -151,8 +152,7 @@ fn describe(index: usize, platform: &ocl::Platform, device: &ocl::Device) -> Dev
 /// CL_DEVICE_KERNEL_EXEC_TIMEOUT_NV of cl_nv_device_attribute_query ([`DeviceDescription::watchdog`]).
 const KERNEL_EXEC_TIMEOUT_NV: u32 = 0x4005;
 
-fn watchdog(device: &ocl::Device) -> Option<bool> {
-    let extensions = info_string(device, Info::Extensions);
+fn watchdog(device: &ocl::Device, extensions: &str) -> Option<bool> {
     if !extensions.contains("cl_nv_device_attribute_query") {
         return None;
     }
